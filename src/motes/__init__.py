@@ -1,0 +1,43 @@
+"""motes: particle systems (Reeves 1983) in compiled kernels.
+
+>>> import motes as mo
+>>> fire = mo.ParticleSystem(capacity=10_000, seed=1)
+>>> _ = fire.add(mo.Emitter(mo.shapes.Disc(0.3), mo.PerSecond(2000), lifetime=mo.Uniform(0.6, 1.2)),
+...              mo.Gravity((0, 2.0, 0)), mo.Drag(0.8))
+>>> fire.run(60, 1 / 60)
+>>> 1000 < len(fire) < 2500
+True
+"""
+
+from . import colliders, shapes
+from .camera import PinholeCamera
+from .collide import Friction, Response
+from .emit import (
+    Burst, Cone, Constant, Direction, Distribution, Emitter, Function, Gradient, Isotropic, Normal,
+    Path, PerFrame, PerSecond, Radial, Rate, ScreenScaled, ShapeNormal, Uniform,
+)
+from .forces import (
+    CallbackForce, CurlNoise, Drag, FieldForce, Force, ForceJacobian, Gravity, QuadraticDrag,
+    RadialField, Springs, Vortex, Wind,
+)
+from .hierarchy import SpawnOnEvent
+from .integrate import Integrator
+from .life import (
+    AlphaBelow, ColorOverLife, Curve, DistanceFrom, Extinction, IntensityBelow, ParticleEvent,
+    SizeOverLife, SpeedOverLife,
+)
+from .particles import Attribute, ParticleStore
+from .system import ParticleSystem
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "AlphaBelow", "Attribute", "Burst", "CallbackForce", "ColorOverLife", "Cone", "Constant",
+    "CurlNoise", "Curve", "Direction", "DistanceFrom", "Distribution", "Drag", "Emitter",
+    "Extinction", "FieldForce", "Force", "ForceJacobian", "Friction", "Function", "Gradient",
+    "Gravity", "IntensityBelow", "Integrator", "Isotropic", "Normal", "ParticleEvent",
+    "ParticleStore", "ParticleSystem", "Path", "PerFrame", "PerSecond", "PinholeCamera",
+    "QuadraticDrag", "Radial", "RadialField", "Rate", "Response", "ScreenScaled", "ShapeNormal",
+    "SizeOverLife", "SpawnOnEvent", "SpeedOverLife", "Springs", "Uniform", "Vortex", "Wind",
+    "colliders", "shapes",
+]

@@ -1,0 +1,45 @@
+"""Time integration: the schemes a system can use, and the kernels that run them."""
+
+from __future__ import annotations
+
+from enum import Enum
+
+from .kernels import Scheme
+
+
+class Integrator(str, Enum):
+    """Integration scheme of a :class:`~motes.ParticleSystem`.
+
+    ========================  ==================================================  =====
+    value                     update (h = dt, a = a(x, v))                         order
+    ========================  ==================================================  =====
+    ``explicit_euler``        x += h v;  v += h a  (both from the old state)       1
+    ``semi_implicit_euler``   v += h a;  x += h v  (new v moves x; symplectic)     1
+    ``verlet``                x' = x + (x - x_prev)(1 - damping) + h² a            2
+                              (position Verlet, Jakobsen 2001; v = (x' - x)/h)
+    ``velocity_verlet``       x += h v + h²/2 a;  v += h/2 (a + a(x'))             2
+    ``rk4``                   classical Runge-Kutta on (x, v)                      4
+    ========================  ==================================================  =====
+
+    The first three run in the single fused kernel; the last two evaluate forces several
+    times per step. For velocity-dependent forces, ``velocity_verlet`` evaluates ``a(x')``
+    at the predicted velocity ``v + h a`` (exact for position-only forces).
+    """
+
+    EXPLICIT_EULER = "explicit_euler"
+    SEMI_IMPLICIT_EULER = "semi_implicit_euler"
+    VERLET = "verlet"
+    VELOCITY_VERLET = "velocity_verlet"
+    RK4 = "rk4"
+
+    @property
+    def fused_scheme(self) -> Scheme:
+        """The scheme the fused kernel runs (NONE for multi-stage integrators)."""
+        return {
+            Integrator.EXPLICIT_EULER: Scheme.EXPLICIT_EULER,
+            Integrator.SEMI_IMPLICIT_EULER: Scheme.SEMI_IMPLICIT_EULER,
+            Integrator.VERLET: Scheme.VERLET,
+        }.get(self, Scheme.NONE)
+
+
+__all__ = ["Integrator", "Scheme"]

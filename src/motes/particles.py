@@ -1,0 +1,317 @@
+"""The particle store: one flat NumPy array per attribute (structure of arrays).
+
+Layout
+------
+A vector attribute with ``c`` components is stored as one array of shape
+``(c, capacity)``: each component is a contiguous row, which is the layout compiled
+kernels vectorise over (a kernel over ``(N, 3)`` rows ran 4.6x slower here). Scalar
+attributes are ``(capacity,)``. Live particles are packed in ``[0, count)``.
+
+``store["position"]`` returns the convenient ``(count, 3)`` view of the live particles
+(a transposed view: writes go straight into the store); ``store.raw("position")`` the
+``(3, capacity)`` buffer that kernels take.
+
+Overflow policy
+---------------
+The capacity is fixed at construction. A spawn that does not fit is truncated: the
+particles past capacity are dropped and counted in :attr:`ParticleStore.dropped`, and
+:meth:`ParticleStore.spawn` returns how many were actually created. Nothing grows
+behind the caller's back, so memory use is known in advance.
+
+Killing
+-------
+:meth:`ParticleStore.compact` removes dead particles with a stable compaction: survivors
+keep their relative order and every attribute moves together. Ids are never reused.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import _validate as check
+from ._jit import serial_kernel
+
+#: Placeholder dtype meaning "the store's floating-point precision" (float32 or float64).
+REAL = "real"
+
+
+@dataclass(frozen=True)
+class Attribute:
+    """Declaration of a per-particle attribute.
+
+    Parameters
+    ----------
+    name : str
+        Attribute name, e.g. ``"temperature"``.
+    components : int
+        1 for a scalar, 3 for a vector, 4 for RGBA.
+    dtype : str or numpy dtype
+        ``REAL`` (the store's float precision) or any NumPy dtype.
+    default : float or tuple of float
+        Value given to newly spawned particles (per component for vectors).
+    doc : str
+        Meaning and unit, shown in :meth:`ParticleStore.describe`.
+    """
+
+    name: str
+    components: int = 1
+    dtype: object = REAL
+    default: float | tuple[float, ...] = 0.0
+    doc: str = ""
+
+    def __post_init__(self):
+        if not self.name.isidentifier():
+            raise ValueError(f"attribute name must be an identifier, got {self.name!r}")
+        check.integer("components", self.components, low=1)
+        if isinstance(self.default, tuple) and len(self.default) != self.components:
+            raise ValueError(
+                f"default of attribute {self.name!r} has {len(self.default)} values, "
+                f"expected {self.components}"
+            )
+
+
+#: Attributes motes knows by name; modules request them with ``store.require(name)``.
+BUILTIN = {
+    a.name: a
+    for a in (
+        Attribute("position", 3, doc="position [m]"),
+        Attribute("velocity", 3, doc="velocity [m/s]"),
+        Attribute("age", 1, doc="time since birth [s]"),
+        Attribute("lifetime", 1, default=float("inf"), doc="age at which it dies [s]"),
+        Attribute("id", 1, np.int64, default=-1, doc="unique id, never reused"),
+        Attribute("mass", 1, default=1.0, doc="mass [kg]"),
+        Attribute("inv_mass", 1, default=1.0, doc="1/mass [1/kg]; 0 pins the particle"),
+        Attribute("color", 4, default=(1.0, 1.0, 1.0, 1.0), doc="linear RGBA in [0, 1]"),
+        Attribute("size", 1, default=0.05, doc="radius [m]"),
+        Attribute("rotation", 1, doc="sprite rotation about the view axis [rad]"),
+        Attribute("prev_position", 3, doc="position one step ago [m] (position Verlet)"),
+        Attribute("birth_color", 4, default=(1.0, 1.0, 1.0, 1.0), doc="colour at birth"),
+        Attribute("birth_size", 1, default=0.05, doc="size at birth [m]"),
+        Attribute("birth_speed", 1, doc="speed at birth [m/s]"),
+    )
+}
+
+#: Always allocated: the minimum a moving, ageing particle needs.
+CORE = ("position", "velocity", "age", "lifetime", "id")
+
+
+class ParticleStore:
+    """Fixed-capacity structure-of-arrays storage for particles.
+
+    Parameters
+    ----------
+    capacity : int
+        Maximum number of live particles (> 0).
+    attributes : iterable of str or Attribute
+        Attributes to allocate in addition to :data:`CORE`.
+    dtype : {numpy.float32, numpy.float64}
+        Precision of ``REAL`` attributes. float32 halves memory traffic; float64 is for
+        verification and long-running simulations.
+    """
+
+    def __init__(self, capacity: int, attributes=(), *, dtype=np.float32):
+        self.capacity = check.integer("capacity", capacity, low=1)
+        self.dtype = np.dtype(dtype)
+        if self.dtype not in (np.float32, np.float64):
+            raise ValueError(f"dtype must be float32 or float64, got {self.dtype}")
+        self.count = 0
+        #: Particles requested past capacity and not created, since construction.
+        self.dropped = 0
+        self._next_id = 0
+        self._specs: dict[str, Attribute] = {}
+        self._arrays: dict[str, np.ndarray] = {}
+        self._keep = np.ones(self.capacity, dtype=np.bool_)
+        self.require(*CORE, *attributes)
+
+    # -- attributes -------------------------------------------------------------------
+    def require(self, *attributes: str | Attribute) -> None:
+        """Allocate attributes (names of :data:`BUILTIN` ones, or :class:`Attribute`).
+
+        Already allocated attributes are left as they are; live particles get the default
+        value of a newly allocated one.
+        """
+        for item in attributes:
+            spec = item if isinstance(item, Attribute) else self._builtin(item)
+            if spec.name in self._specs:
+                if self._specs[spec.name] != spec:
+                    raise ValueError(f"attribute {spec.name!r} is already declared differently")
+                continue
+            dtype = self.dtype if spec.dtype == REAL else np.dtype(spec.dtype)
+            shape = (self.capacity,) if spec.components == 1 else (spec.components, self.capacity)
+            array = np.empty(shape, dtype=dtype)
+            self._specs[spec.name] = spec
+            self._arrays[spec.name] = array
+            self._fill_default(spec.name, 0, self.count)
+
+    @staticmethod
+    def _builtin(name: str) -> Attribute:
+        if name not in BUILTIN:
+            raise KeyError(
+                f"unknown attribute {name!r}; built-in attributes are {', '.join(BUILTIN)} "
+                "(declare others with motes.Attribute)"
+            )
+        return BUILTIN[name]
+
+    def has(self, name: str) -> bool:
+        """Whether attribute ``name`` is allocated."""
+        return name in self._arrays
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Names of the allocated attributes, in allocation order."""
+        return tuple(self._arrays)
+
+    def raw(self, name: str) -> np.ndarray:
+        """The full buffer of ``name``: shape ``(components, capacity)`` or ``(capacity,)``."""
+        try:
+            return self._arrays[name]
+        except KeyError:
+            raise KeyError(self._missing(name)) from None
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """Live view: ``(count, components)`` for vectors, ``(count,)`` for scalars."""
+        array = self.raw(name)
+        return array[: self.count] if array.ndim == 1 else array[:, : self.count].T
+
+    def __setitem__(self, name: str, value) -> None:
+        self[name][...] = value
+
+    def _missing(self, name: str) -> str:
+        return (
+            f"attribute {name!r} is not allocated in this store "
+            f"(allocated: {', '.join(self._arrays)})"
+        )
+
+    @property
+    def bytes_per_particle(self) -> int:
+        """Bytes of storage per unit of capacity, over all attributes and scratch."""
+        per = sum(a.itemsize * (1 if a.ndim == 1 else a.shape[0]) for a in self._arrays.values())
+        return per + self._keep.itemsize
+
+    @property
+    def nbytes(self) -> int:
+        """Total bytes allocated for the store's arrays."""
+        return sum(a.nbytes for a in self._arrays.values()) + self._keep.nbytes
+
+    def describe(self) -> str:
+        """A table of attributes: name, dtype, components, bytes per particle, meaning."""
+        rows = [f"{'attribute':<14} {'dtype':<8} {'comp':>4} {'bytes':>5}  meaning"]
+        for name, spec in self._specs.items():
+            a = self._arrays[name]
+            rows.append(
+                f"{name:<14} {a.dtype.name:<8} {spec.components:>4} "
+                f"{a.itemsize * spec.components:>5}  {spec.doc}"
+            )
+        rows.append(f"total {self.bytes_per_particle} bytes per particle (with the kill mask)")
+        return "\n".join(rows)
+
+    # -- life and death ---------------------------------------------------------------
+    def spawn(self, count: int) -> slice:
+        """Append up to ``count`` particles with default attributes and fresh ids.
+
+        Returns the slice of the new particles (shorter than ``count`` when the store is
+        full: the rest are dropped and added to :attr:`dropped`).
+        """
+        count = check.integer("count", count, low=0)
+        made = min(count, self.capacity - self.count)
+        self.dropped += count - made
+        start = self.count
+        self.count += made
+        for name in self._arrays:
+            self._fill_default(name, start, self.count)
+        ids = self._arrays["id"]
+        ids[start : self.count] = np.arange(self._next_id, self._next_id + made, dtype=np.int64)
+        self._next_id += made
+        return slice(start, self.count)
+
+    def _fill_default(self, name: str, start: int, stop: int) -> None:
+        if stop <= start:
+            return
+        default = self._specs[name].default
+        array = self._arrays[name]
+        if array.ndim == 1:
+            array[start:stop] = default
+        else:
+            array[:, start:stop] = np.asarray(default, dtype=array.dtype).reshape(-1, 1)
+
+    @property
+    def keep(self) -> np.ndarray:
+        """Scratch mask of shape ``(capacity,)``: kernels write False for particles to kill."""
+        return self._keep
+
+    def compact(self, keep: np.ndarray | None = None) -> np.ndarray | None:
+        """Remove particles whose ``keep`` flag is False, preserving the survivors' order.
+
+        Parameters
+        ----------
+        keep : bool array, shape (count,) or (capacity,), optional
+            Defaults to the store's own :attr:`keep` mask.
+
+        Returns
+        -------
+        new_index : int64 array of shape (old count,), or None when nobody died
+            New index of each old particle, -1 for the dead; modules holding particle
+            indices (springs) remap with it.
+        """
+        n = self.count
+        mask = self._keep if keep is None else np.asarray(keep, dtype=np.bool_)
+        if mask.shape[0] < n:
+            raise ValueError(f"keep must have at least {n} entries, got {mask.shape[0]}")
+        if mask[:n].all():
+            return None
+        new_index = np.empty(n, dtype=np.int64)
+        survivors = _stable_index(mask, n, new_index)
+        for array in self._arrays.values():
+            if array.ndim == 1:
+                _compact_1d(array, mask, n)
+            else:
+                _compact_2d(array, mask, n)
+        self.count = survivors
+        self._keep[:n] = True
+        return new_index
+
+    def kill(self, indices) -> np.ndarray | None:
+        """Kill the particles at ``indices`` (array of live indices) and compact."""
+        idx = np.asarray(indices, dtype=np.int64)
+        if idx.size and (idx.min() < 0 or idx.max() >= self.count):
+            raise IndexError(f"indices must be in [0, {self.count}), got {idx.min()}..{idx.max()}")
+        self._keep[idx] = False
+        return self.compact()
+
+    def clear(self) -> None:
+        """Remove every particle (ids keep counting up)."""
+        self.count = 0
+
+
+@serial_kernel
+def _stable_index(keep, n, new_index):
+    j = 0
+    for i in range(n):
+        if keep[i]:
+            new_index[i] = j
+            j += 1
+        else:
+            new_index[i] = -1
+    return j
+
+
+@serial_kernel
+def _compact_1d(array, keep, n):
+    # In place is safe: the write index j never passes the read index i.
+    j = 0
+    for i in range(n):
+        if keep[i]:
+            array[j] = array[i]
+            j += 1
+
+
+@serial_kernel
+def _compact_2d(array, keep, n):
+    for c in range(array.shape[0]):
+        j = 0
+        for i in range(n):
+            if keep[i]:
+                array[c, j] = array[c, i]
+                j += 1

@@ -1,0 +1,292 @@
+"""ParticleSystem: one particle store and its ordered pipeline per step.
+
+No physics lives here, only orchestration. One step (Reeves' frame) runs:
+
+1. **emit**: every emitter creates its particles and their initial attributes;
+2. **forces**: non-field forces accumulate into the force buffer;
+3. **move**: one fused kernel evaluates gravity, drag and wind inline, integrates,
+   resolves colliders, ages every particle and flags the ones whose life is over
+   (multi-stage integrators advance first, then run the same kernel without moving);
+4. **extinguish**: other extinction policies flag particles; events (collision, death)
+   are delivered; dead particles are removed by one stable compaction;
+5. **over-life**: colour, size and speed curves update the survivors;
+6. **children**: child systems (spawned by this system's events) take their step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from . import _validate as check
+from .collide.colliders import Collider, pack
+from .emit.emitter import Emitter
+from .forces.base import FieldForce, FieldTerms, Force
+from .integrate import Integrator
+from .integrate.kernels import ONE, PARAM_COUNT, Scheme, acceleration_kernel, step_kernel
+from .integrate.multistage import rk4, velocity_verlet
+from .life.curves import _OverLife
+from .life.events import KINDS, gather
+from .life.extinction import Extinction
+from .particles import ParticleStore
+
+
+class ParticleSystem:
+    """A particle store, its emitters, forces, colliders and modifiers, stepped in order.
+
+    Parameters
+    ----------
+    capacity : int
+        Maximum live particles (> 0); spawns past it are dropped and counted in
+        ``store.dropped``.
+    seed : int
+        Seed of the system's random generator (all its randomness flows from it).
+    integrator : Integrator or str
+        Default ``"semi_implicit_euler"``; see :class:`~motes.integrate.Integrator`.
+    dtype : numpy.float32 or numpy.float64
+        Precision of particle attributes.
+    verlet_damping : float
+        Fraction of velocity lost per step by the ``verlet`` integrator, in [0, 1).
+    attributes : iterable of str or Attribute
+        Extra attributes to allocate up front.
+    """
+
+    def __init__(self, capacity: int, *, seed: int = 0,
+                 integrator: Integrator | str = Integrator.SEMI_IMPLICIT_EULER,
+                 dtype=np.float32, verlet_damping: float = 0.0, attributes=()):
+        self.store = ParticleStore(capacity, attributes, dtype=dtype)
+        self.seed_sequence = np.random.SeedSequence(check.integer("seed", seed, low=0))
+        self.rng = np.random.default_rng(self.seed_sequence)
+        try:
+            self.integrator = Integrator(integrator)
+        except ValueError:
+            allowed = ", ".join(repr(i.value) for i in Integrator)
+            raise ValueError(f"integrator must be one of {allowed}, got {integrator!r}") from None
+        self.verlet_damping = check.real("verlet_damping", verlet_damping, low=0.0, high=1.0,
+                                         high_open=True)
+        if self.integrator == Integrator.VERLET:
+            self.store.require("prev_position")
+        self.time = 0.0
+        self.frame = 0
+        #: Step size of the latest step [s] (0 before the first).
+        self.last_dt = 0.0
+        self.emitters: list[Emitter] = []
+        self.field_forces: list[FieldForce] = []
+        self.forces: list[Force] = []
+        self.colliders: list[Collider] = []
+        self.modifiers: list[_OverLife] = []
+        self.extinctions: list[Extinction] = []
+        self.children: list[ParticleSystem] = []
+        self._listeners: dict[str, list[Callable]] = {kind: [] for kind in KINDS}
+        self._force_buffer: np.ndarray | None = None
+        self._hits: np.ndarray | None = None
+
+    # -- building -------------------------------------------------------------------
+    def add(self, *items) -> ParticleSystem:
+        """Add emitters, forces, colliders, over-life modifiers, extinction policies or
+        child links (:class:`~motes.hierarchy.SpawnOnEvent`). Returns ``self``."""
+        for item in items:
+            if isinstance(item, Emitter):
+                self.store.require(*item.writes)
+                self.emitters.append(item)
+            elif isinstance(item, FieldForce):
+                self.store.require(*item.reads)
+                self.field_forces.append(item)
+            elif isinstance(item, Force):
+                item.bind(self.store)
+                self.forces.append(item)
+            elif isinstance(item, Collider):
+                self.colliders.append(item)
+            elif isinstance(item, _OverLife):
+                item.bind(self.store)
+                self.modifiers.append(item)
+            elif isinstance(item, Extinction):
+                item.bind(self.store)
+                self.extinctions.append(item)
+            elif hasattr(item, "attach"):
+                item.attach(self)
+            else:
+                raise TypeError(f"cannot add {item!r} to a ParticleSystem")
+        return self
+
+    def on(self, kind: str, callback: Callable) -> None:
+        """Call ``callback(event)`` for every ``kind`` event: ``"birth"``, ``"death"``,
+        ``"collision"`` or ``"step"`` (every live particle, after each step)."""
+        check.choice("kind", kind, KINDS)
+        if not callable(callback):
+            raise TypeError(f"callback must be callable, got {callback!r}")
+        self._listeners[kind].append(callback)
+
+    def child_seed(self) -> int:
+        """A seed for a child system, drawn from an independent stream derived from ours."""
+        return int(self.seed_sequence.spawn(1)[0].generate_state(1)[0])
+
+    # -- stepping -------------------------------------------------------------------
+    def step(self, dt: float) -> None:
+        """Advance the system by ``dt`` seconds (one frame)."""
+        dt = check.positive("dt", dt)
+        self.last_dt = dt
+        store = self.store
+        self._emit(dt)
+        n = store.count
+        scheme = self.integrator.fused_scheme
+        terms = self._field_terms()
+        params = self._params(terms, dt)
+        if scheme == Scheme.NONE and n:
+            self._advance_multistage(n, dt, params, terms)
+        elif self.forces and n:
+            self._accumulate_forces(n, store.raw("position")[:, :n], store.raw("velocity")[:, :n],
+                                    self.time)
+        dead = self._move(n, scheme, params, terms)
+        for policy in self.extinctions:
+            policy.mark(store)
+        self.time += dt
+        self._deliver_collisions(n)
+        if dead or self.extinctions:
+            self._extinguish(n)
+        for modifier in self.modifiers:
+            modifier.apply(store)
+        if self._listeners["step"] and store.count:
+            self._emit_event("step", np.arange(store.count))
+        self.frame += 1
+        for child in self.children:
+            child.step(dt)
+
+    def run(self, steps: int, dt: float) -> None:
+        """Take ``steps`` steps of ``dt`` seconds."""
+        for _ in range(check.integer("steps", steps, low=0)):
+            self.step(dt)
+
+    def _emit(self, dt: float) -> None:
+        for emitter in self.emitters:
+            new = emitter.emit(self, self.frame, self.time, dt)
+            if new.stop > new.start:
+                self._born(new, dt)
+
+    def _born(self, new: slice, dt: float) -> None:
+        """Bookkeeping for particles just created (by an emitter or a parent's event)."""
+        store = self.store
+        if self.integrator == Integrator.VERLET:
+            store["prev_position"][new] = store["position"][new] - dt * store["velocity"][new]
+        if self._listeners["birth"]:
+            self._emit_event("birth", np.arange(new.start, new.stop))
+
+    def _field_terms(self) -> FieldTerms:
+        terms = FieldTerms()
+        for force in self.field_forces:
+            terms.add(force.terms())
+        return terms
+
+    def _params(self, terms: FieldTerms, dt: float) -> np.ndarray:
+        params = np.zeros(PARAM_COUNT, dtype=self.store.dtype)
+        params[:11] = terms.packed(np.float64)
+        params[11] = dt
+        params[12] = self.verlet_damping
+        params[ONE] = 1.0
+        return params
+
+    def _buffer(self, n: int) -> np.ndarray:
+        if self._force_buffer is None:
+            self._force_buffer = np.zeros((3, self.store.capacity), dtype=self.store.dtype)
+        return self._force_buffer[:, :n]
+
+    def _accumulate_forces(self, n, position, velocity, time) -> np.ndarray:
+        out = self._buffer(n)
+        out[...] = 0
+        for force in self.forces:
+            force.accumulate(self.store, position, velocity, time, out)
+        return out
+
+    def _inv_mass(self) -> tuple[np.ndarray, bool]:
+        if self.store.has("inv_mass"):
+            return self.store.raw("inv_mass"), True
+        return np.ones(1, dtype=self.store.dtype), False
+
+    def _advance_multistage(self, n, dt, params, terms) -> None:
+        store = self.store
+        inv_mass, has_inv_mass = self._inv_mass()
+        quadratic = terms.quadratic_drag > 0
+
+        def acceleration(x, v, t, out):
+            force = self._accumulate_forces(n, x, v, t) if self.forces else out
+            acceleration_kernel(n, v, inv_mass, has_inv_mass, force, bool(self.forces),
+                                params, quadratic, out)
+
+        x = store.raw("position")[:, :n]
+        v = store.raw("velocity")[:, :n]
+        if self.integrator == Integrator.RK4:
+            rk4(x, v, self.time, dt, acceleration)
+        else:
+            velocity_verlet(x, v, self.time, dt, acceleration)
+
+    def _move(self, n: int, scheme: Scheme, params, terms) -> int:
+        store = self.store
+        if n == 0:
+            return 0
+        table, structure = pack(self.colliders)
+        track_hits = bool(self._listeners["collision"])
+        if track_hits and (self._hits is None):
+            self._hits = np.full(store.capacity, -1, dtype=np.int32)
+        inv_mass, has_inv_mass = self._inv_mass()
+        kernel = step_kernel(int(scheme), structure, bool(self.forces) and scheme != Scheme.NONE,
+                             has_inv_mass, terms.quadratic_drag > 0, track_hits)
+        placeholder3 = store.raw("position")
+        prev = store.raw("prev_position") if store.has("prev_position") else placeholder3
+        force = self._force_buffer if self._force_buffer is not None else placeholder3
+        hits = self._hits if track_hits else np.empty(1, dtype=np.int32)
+        return int(kernel(n, store.raw("position"), store.raw("velocity"), prev, store.raw("age"),
+                          store.raw("lifetime"), inv_mass, force, params,
+                          table.astype(store.dtype), store.keep, hits))
+
+    def _deliver_collisions(self, n: int) -> None:
+        if not self._listeners["collision"] or n == 0:
+            return
+        hits = self._hits[:n]
+        index = np.flatnonzero(hits >= 0)
+        if index.size:
+            event = gather("collision", self.time, self.store, index, hits[index].copy())
+            for callback in self._listeners["collision"]:
+                callback(event)
+
+    def _extinguish(self, n: int) -> None:
+        store = self.store
+        if self._listeners["death"]:
+            index = np.flatnonzero(~store.keep[:n])
+            if index.size:
+                self._emit_event("death", index)
+        new_index = store.compact()
+        if new_index is not None:
+            for force in self.forces:
+                force.remap(new_index)
+
+    def _emit_event(self, kind: str, index: np.ndarray) -> None:
+        event = gather(kind, self.time, self.store, index)
+        for callback in self._listeners[kind]:
+            callback(event)
+
+    # -- reading ----------------------------------------------------------------------
+    def __len__(self) -> int:
+        return self.store.count
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """Live view of attribute ``name``: ``(count, c)`` or ``(count,)``."""
+        return self.store[name]
+
+    def summary(self) -> dict:
+        """Count, bounding box [m] and mean speed [m/s] of the live particles."""
+        n = self.store.count
+        if n == 0:
+            return {"count": 0, "bbox_min": None, "bbox_max": None, "mean_speed": 0.0}
+        pos = self.store.raw("position")[:, :n]
+        vel = self.store.raw("velocity")[:, :n]
+        return {
+            "count": n,
+            "bbox_min": pos.min(axis=1).astype(float).tolist(),
+            "bbox_max": pos.max(axis=1).astype(float).tolist(),
+            "mean_speed": float(np.sqrt((vel.astype(np.float64) ** 2).sum(axis=0)).mean()),
+        }
+
+    def __repr__(self) -> str:
+        return (f"ParticleSystem({self.store.count}/{self.store.capacity} particles, "
+                f"t={self.time:.4g} s, integrator={self.integrator.value!r})")
