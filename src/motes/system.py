@@ -273,6 +273,10 @@ class ParticleSystem:
         """Live view of attribute ``name``: ``(count, c)`` or ``(count,)``."""
         return self.store[name]
 
+    def __setitem__(self, name: str, value) -> None:
+        """Set attribute ``name`` of every live particle (broadcasting ``value``)."""
+        self.store[name] = value
+
     def summary(self) -> dict:
         """Count, bounding box [m] and mean speed [m/s] of the live particles."""
         n = self.store.count
