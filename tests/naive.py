@@ -70,10 +70,10 @@ def respond(collider, p, v, depth, n, dt):
     return p, t * scale[:, None] + vn_out[:, None] * n, hit, np.zeros_like(hit)
 
 
-def step(scheme, p, v, prev, age, life, w, force, fields, colliders, dt, damping=0.0):
+def step(scheme, p, v, age, life, w, force, fields, colliders, dt, damping=0.0):
     """One fused step. ``scheme`` in {"explicit", "semi", "verlet", "none"}.
 
-    Returns (p, v, prev, age, keep, last_hit).
+    Returns (p, v, age, keep, last_hit).
     """
     p, v = p.copy(), v.copy()
     if scheme != "none":
@@ -84,6 +84,7 @@ def step(scheme, p, v, prev, age, life, w, force, fields, colliders, dt, damping
         v = v + dt * a
         p = p + dt * v
     elif scheme == "verlet":
+        prev = p - v * dt  # the velocity stands for (x - x_prev) / dt
         new = p + (p - prev) * (1 - damping) + a * dt * dt
         v = (new - p) / dt
         p = new
@@ -94,11 +95,9 @@ def step(scheme, p, v, prev, age, life, w, force, fields, colliders, dt, damping
         p, v, hit, kill = respond(collider, p, v, depth, n, dt)
         killed |= kill
         last = np.where(hit, c, last)
-    if scheme == "verlet":
-        prev = p - v * dt
     age = age + dt
     keep = ~(killed | (age >= life))
-    return p, v, prev, age, keep, last
+    return p, v, age, keep, last
 
 
 def compact(arrays, keep):

@@ -32,7 +32,8 @@ def test_different_seeds_differ():
     a = fire_state(11, steps=50)
     b = fire_state(12, steps=50)
     assert a["position"].shape != b["position"].shape or not np.array_equal(
-        a["position"], b["position"])
+        a["position"], b["position"]
+    )
 
 
 def test_result_does_not_depend_on_thread_count():

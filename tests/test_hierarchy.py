@@ -9,7 +9,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 import motes as mo
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
-from fireworks import build_fireworks  # noqa: E402
+from fireworks import build_fireworks
 
 
 def test_fireworks_child_counts_match_parent_deaths():
@@ -33,12 +33,26 @@ def test_fireworks_child_counts_match_parent_deaths():
 
 def test_children_inherit_position_colour_and_velocity_fraction():
     parent = mo.ParticleSystem(10, seed=1, dtype=np.float64)
-    parent.add(mo.Emitter(mo.shapes.Point(), mo.Burst(2), position=(1, 2, 3), speed=0.0,
-                          lifetime=0.05, color="#ff0000"))
+    parent.add(
+        mo.Emitter(
+            mo.shapes.Point(),
+            mo.Burst(2),
+            position=(1, 2, 3),
+            speed=0.0,
+            lifetime=0.05,
+            color="#ff0000",
+        )
+    )
     child = mo.ParticleSystem(100, seed=parent.child_seed(), dtype=np.float64)
-    parent.add(mo.SpawnOnEvent(child, mo.Emitter(speed=0.0, inherit_velocity=0.5,
-                                                 color="#00ff00"),
-                               on="death", count=5, inherit=("color",)))
+    parent.add(
+        mo.SpawnOnEvent(
+            child,
+            mo.Emitter(speed=0.0, inherit_velocity=0.5, color="#00ff00"),
+            on="death",
+            count=5,
+            inherit=("color",),
+        )
+    )
     parent.step(0.01)
     parent["velocity"] = [[2.0, 0, 0], [0, 4.0, 0]]
     for _ in range(5):
@@ -57,8 +71,11 @@ def test_child_streams_are_independent_of_parent_draws():
         if extra_parent_emitter:
             parent.add(mo.Emitter(rate=mo.PerFrame(5, 5), lifetime=10.0))
         child = mo.ParticleSystem(100, seed=parent.child_seed())
-        parent.add(mo.SpawnOnEvent(child, mo.Emitter(speed=mo.Uniform(1, 2),
-                                                     direction=mo.Isotropic()), count=10))
+        parent.add(
+            mo.SpawnOnEvent(
+                child, mo.Emitter(speed=mo.Uniform(1, 2), direction=mo.Isotropic()), count=10
+            )
+        )
         parent.run(5, 0.01)
         return child["velocity"].copy()
 

@@ -85,9 +85,6 @@ def projectile(integrator, steps, h):
     system = mo.ParticleSystem(1, seed=0, integrator=integrator, dtype=np.float64)
     system.add(mo.Gravity((0, -G, 0)))
     system.store.spawn(1)
-    # The Verlet integrator takes its previous position as x - v h at birth.
-    if system.store.has("prev_position"):
-        system["prev_position"] = [[0.0, -V0 * h, 0.0]]
     system["velocity"] = [[0.0, V0, 0.0]]
     heights = []
     for _ in range(steps):
@@ -116,8 +113,7 @@ def test_projectile_matches_each_integrators_discrete_closed_form(integrator, cl
 def test_verlet_damping_slows_a_free_particle():
     system = mo.ParticleSystem(1, integrator="verlet", verlet_damping=0.1, dtype=np.float64)
     system.store.spawn(1)
-    system["velocity"] = [[1.0, 0.0, 0.0]]
-    system["prev_position"] = [[-0.1, 0.0, 0.0]]
+    system["velocity"] = [[1.0, 0.0, 0.0]]  # x_prev = x - v h = -0.1
     system.step(0.1)
     # x' = x + (x - x_prev)(1 - d): displacement 0.1 × 0.9.
     assert system["position"][0, 0] == pytest.approx(0.09)

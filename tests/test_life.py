@@ -38,17 +38,21 @@ def test_color_and_size_over_life_follow_their_curves():
     system.add(color, size)
     system.step(0.01)
     t = system["age"] / system["lifetime"]
-    assert_allclose(system["color"], naive.curve(t, color.curve.times, color.curve.values),
-                    atol=1e-12)
+    assert_allclose(
+        system["color"], naive.curve(t, color.curve.times, color.curve.values), atol=1e-12
+    )
     want = 0.1 * naive.curve(t, size.curve.times, size.curve.values)[:, 0]
     assert_allclose(system["size"], want, atol=1e-12)
 
 
 def test_speed_over_life_keeps_direction():
     system = mo.ParticleSystem(100, dtype=np.float64)
-    system.add(mo.Emitter(mo.shapes.Point(), mo.Burst(100), speed=2.0, lifetime=1.0,
-                          direction=mo.Isotropic()),
-               mo.SpeedOverLife([(0, 1), (1, 0)]))
+    system.add(
+        mo.Emitter(
+            mo.shapes.Point(), mo.Burst(100), speed=2.0, lifetime=1.0, direction=mo.Isotropic()
+        ),
+        mo.SpeedOverLife([(0, 1), (1, 0)]),
+    )
     system.step(0.25)
     speed = np.linalg.norm(system["velocity"], axis=1)
     assert_allclose(speed, 2.0 * 0.75, rtol=1e-12)
@@ -71,8 +75,10 @@ def test_intensity_alpha_and_distance_extinction():
 def test_kill_volume_collider_and_collision_events():
     system = filled(3)
     system["position"] = [[0, 0, 0], [2, 0, 0], [0, -1, 0]]
-    system.add(mo.colliders.Sphere((2, 0, 0), 0.5, response="kill"),
-               mo.colliders.Plane((0, 1, 0), -0.5, restitution=1.0))
+    system.add(
+        mo.colliders.Sphere((2, 0, 0), 0.5, response="kill"),
+        mo.colliders.Plane((0, 1, 0), -0.5, restitution=1.0),
+    )
     hits, deaths = [], []
     system.on("collision", hits.append)
     system.on("death", deaths.append)
@@ -113,12 +119,20 @@ def test_stick_response_stops_particles():
 
 def test_particles_stay_inside_a_tank():
     system = mo.ParticleSystem(2000, seed=2)
-    system.add(mo.Emitter(mo.shapes.Sphere(0.2), mo.Burst(2000), speed=mo.Uniform(5, 20),
-                          direction=mo.Isotropic(), lifetime=100.0),
-               mo.Gravity(), mo.colliders.Box((0, 0, 0), (2, 1, 2), inside=True, restitution=0.9))
+    system.add(
+        mo.Emitter(
+            mo.shapes.Sphere(0.2),
+            mo.Burst(2000),
+            speed=mo.Uniform(5, 20),
+            direction=mo.Isotropic(),
+            lifetime=100.0,
+        ),
+        mo.Gravity(),
+        mo.colliders.Box((0, 0, 0), (2, 1, 2), inside=True, restitution=0.9),
+    )
     for _ in range(300):
         system.step(1 / 120)
-        assert np.all(np.abs(system["position"]) <= [1, 0.5, 1] + np.float32(1e-5))
+        assert np.all(np.abs(system["position"]) <= np.array([1, 0.5, 1]) + 1e-5)
     assert len(system) == 2000
 
 

@@ -13,8 +13,16 @@ from collections.abc import Sequence
 import numpy as np
 
 
-def real(name: str, value, *, low: float | None = None, high: float | None = None,
-         low_open: bool = False, high_open: bool = False, allow_inf: bool = False) -> float:
+def real(
+    name: str,
+    value,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    high_open: bool = False,
+    allow_inf: bool = False,
+) -> float:
     """Return ``value`` as a float after checking it is finite and within ``[low, high]``.
 
     ``low_open`` / ``high_open`` make the bound strict. Infinite values are refused unless

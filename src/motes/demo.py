@@ -26,8 +26,14 @@ def build_fire(*, capacity: int = 200_000, rate: float = 2000.0, seed: int = 1) 
     """
     fire = ParticleSystem(capacity=capacity, seed=seed)
     fire.add(
-        Emitter(shapes.Disc(0.3), PerFrame(rate, rate / 5), speed=Uniform(0.3, 1.0),
-                lifetime=Uniform(0.6, 1.2), color="#fff3b0", size=Uniform(0.03, 0.06)),
+        Emitter(
+            shapes.Disc(0.3),
+            PerFrame(rate, rate / 5),
+            speed=Uniform(0.3, 1.0),
+            lifetime=Uniform(0.6, 1.2),
+            color="#fff3b0",
+            size=Uniform(0.03, 0.06),
+        ),
         Gravity((0.0, 2.0, 0.0)),  # buoyancy: hot gas rises
         Drag(0.8),
         CurlNoise(strength=1.5, scale=0.4, seed=seed),
@@ -42,8 +48,10 @@ def run(seconds: float = 10.0, *, seed: int = 1, rate: float = 2000.0, out=print
     """Simulate the fire and print a per-second summary; returns the final summary."""
     fire = build_fire(rate=rate, seed=seed)
     steps = round(seconds * FPS)
-    out(f"motes fire demo: {seconds:g} s at {FPS} steps/s, mean {rate:g} births per frame, "
-        f"seed {seed}")
+    out(
+        f"motes fire demo: {seconds:g} s at {FPS} steps/s, mean {rate:g} births per frame, "
+        f"seed {seed}"
+    )
     out(f"{'time [s]':>8} {'particles':>10} {'mean speed':>11}  bounding box [m]")
     started = time.perf_counter()
     summary = fire.summary()
@@ -53,9 +61,13 @@ def run(seconds: float = 10.0, *, seed: int = 1, rate: float = 2000.0, out=print
             summary = fire.summary()
             lo = np.round(summary["bbox_min"], 2).tolist() if summary["count"] else "-"
             hi = np.round(summary["bbox_max"], 2).tolist() if summary["count"] else "-"
-            out(f"{fire.time:>8.2f} {summary['count']:>10d} {summary['mean_speed']:>9.3f}"
-                f" m/s  {lo} .. {hi}")
+            out(
+                f"{fire.time:>8.2f} {summary['count']:>10d} {summary['mean_speed']:>9.3f}"
+                f" m/s  {lo} .. {hi}"
+            )
     elapsed = time.perf_counter() - started
-    out(f"{steps} steps in {elapsed:.2f} s ({1e3 * elapsed / steps:.2f} ms/step incl. "
-        f"first-call compilation); {fire.store.dropped} spawns dropped at capacity")
+    out(
+        f"{steps} steps in {elapsed:.2f} s ({1e3 * elapsed / steps:.2f} ms/step incl. "
+        f"first-call compilation); {fire.store.dropped} spawns dropped at capacity"
+    )
     return summary

@@ -37,8 +37,9 @@ class SpawnOnEvent:
         Parent attributes copied to the children (e.g. ``("color",)``).
     """
 
-    def __init__(self, child, emitter: Emitter, *, on: str = "death", count=1,
-                 inherit: tuple[str, ...] = ()):
+    def __init__(
+        self, child, emitter: Emitter, *, on: str = "death", count=1, inherit: tuple[str, ...] = ()
+    ):
         self.child = child
         if not isinstance(emitter, Emitter):
             raise TypeError(f"emitter must be an Emitter, got {emitter!r}")
@@ -79,8 +80,9 @@ class SpawnOnEvent:
             return
         origins = np.repeat(event.position, counts, axis=0)
         base = np.repeat(event.velocity, counts, axis=0)
-        inherited = {name: np.repeat(event.attributes[name], counts, axis=0)
-                     for name in self.inherit}
+        inherited = {
+            name: np.repeat(event.attributes[name], counts, axis=0) for name in self.inherit
+        }
         new = self.emitter.emit_at(self.child, origins, base, inherited)
         if new.stop > new.start:
             self.child._born(new, self.child.last_dt)

@@ -86,7 +86,6 @@ BUILTIN = {
         Attribute("color", 4, default=(1.0, 1.0, 1.0, 1.0), doc="linear RGBA in [0, 1]"),
         Attribute("size", 1, default=0.05, doc="radius [m]"),
         Attribute("rotation", 1, doc="sprite rotation about the view axis [rad]"),
-        Attribute("prev_position", 3, doc="position one step ago [m] (position Verlet)"),
         Attribute("birth_color", 4, default=(1.0, 1.0, 1.0, 1.0), doc="colour at birth"),
         Attribute("birth_size", 1, default=0.05, doc="size at birth [m]"),
         Attribute("birth_speed", 1, doc="speed at birth [m/s]"),

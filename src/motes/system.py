@@ -52,9 +52,16 @@ class ParticleSystem:
         Extra attributes to allocate up front.
     """
 
-    def __init__(self, capacity: int, *, seed: int = 0,
-                 integrator: Integrator | str = Integrator.SEMI_IMPLICIT_EULER,
-                 dtype=np.float32, verlet_damping: float = 0.0, attributes=()):
+    def __init__(
+        self,
+        capacity: int,
+        *,
+        seed: int = 0,
+        integrator: Integrator | str = Integrator.SEMI_IMPLICIT_EULER,
+        dtype=np.float32,
+        verlet_damping: float = 0.0,
+        attributes=(),
+    ):
         self.store = ParticleStore(capacity, attributes, dtype=dtype)
         self.seed_sequence = np.random.SeedSequence(check.integer("seed", seed, low=0))
         self.rng = np.random.default_rng(self.seed_sequence)
@@ -63,10 +70,9 @@ class ParticleSystem:
         except ValueError:
             allowed = ", ".join(repr(i.value) for i in Integrator)
             raise ValueError(f"integrator must be one of {allowed}, got {integrator!r}") from None
-        self.verlet_damping = check.real("verlet_damping", verlet_damping, low=0.0, high=1.0,
-                                         high_open=True)
-        if self.integrator == Integrator.VERLET:
-            self.store.require("prev_position")
+        self.verlet_damping = check.real(
+            "verlet_damping", verlet_damping, low=0.0, high=1.0, high_open=True
+        )
         self.time = 0.0
         self.frame = 0
         #: Step size of the latest step [s] (0 before the first).
@@ -136,8 +142,9 @@ class ParticleSystem:
         if scheme == Scheme.NONE and n:
             self._advance_multistage(n, dt, params, terms)
         elif self.forces and n:
-            self._accumulate_forces(n, store.raw("position")[:, :n], store.raw("velocity")[:, :n],
-                                    self.time)
+            self._accumulate_forces(
+                n, store.raw("position")[:, :n], store.raw("velocity")[:, :n], self.time
+            )
         dead = self._move(n, scheme, params, terms)
         for policy in self.extinctions:
             policy.mark(store)
@@ -166,9 +173,6 @@ class ParticleSystem:
 
     def _born(self, new: slice, dt: float) -> None:
         """Bookkeeping for particles just created (by an emitter or a parent's event)."""
-        store = self.store
-        if self.integrator == Integrator.VERLET:
-            store["prev_position"][new] = store["position"][new] - dt * store["velocity"][new]
         if self._listeners["birth"]:
             self._emit_event("birth", np.arange(new.start, new.stop))
 
@@ -210,8 +214,9 @@ class ParticleSystem:
 
         def acceleration(x, v, t, out):
             force = self._accumulate_forces(n, x, v, t) if self.forces else out
-            acceleration_kernel(n, v, inv_mass, has_inv_mass, force, bool(self.forces),
-                                params, quadratic, out)
+            acceleration_kernel(
+                n, v, inv_mass, has_inv_mass, force, bool(self.forces), params, quadratic, out
+            )
 
         x = store.raw("position")[:, :n]
         v = store.raw("velocity")[:, :n]
@@ -229,15 +234,32 @@ class ParticleSystem:
         if track_hits and (self._hits is None):
             self._hits = np.full(store.capacity, -1, dtype=np.int32)
         inv_mass, has_inv_mass = self._inv_mass()
-        kernel = step_kernel(int(scheme), structure, bool(self.forces) and scheme != Scheme.NONE,
-                             has_inv_mass, terms.quadratic_drag > 0, track_hits)
+        kernel = step_kernel(
+            int(scheme),
+            structure,
+            bool(self.forces) and scheme != Scheme.NONE,
+            has_inv_mass,
+            terms.quadratic_drag > 0,
+            track_hits,
+        )
         placeholder3 = store.raw("position")
-        prev = store.raw("prev_position") if store.has("prev_position") else placeholder3
         force = self._force_buffer if self._force_buffer is not None else placeholder3
         hits = self._hits if track_hits else np.empty(1, dtype=np.int32)
-        return int(kernel(n, store.raw("position"), store.raw("velocity"), prev, store.raw("age"),
-                          store.raw("lifetime"), inv_mass, force, params,
-                          table.astype(store.dtype), store.keep, hits))
+        return int(
+            kernel(
+                n,
+                store.raw("position"),
+                store.raw("velocity"),
+                store.raw("age"),
+                store.raw("lifetime"),
+                inv_mass,
+                force,
+                params,
+                table.astype(store.dtype),
+                store.keep,
+                hits,
+            )
+        )
 
     def _deliver_collisions(self, n: int) -> None:
         if not self._listeners["collision"] or n == 0:
@@ -292,5 +314,7 @@ class ParticleSystem:
         }
 
     def __repr__(self) -> str:
-        return (f"ParticleSystem({self.store.count}/{self.store.capacity} particles, "
-                f"t={self.time:.4g} s, integrator={self.integrator.value!r})")
+        return (
+            f"ParticleSystem({self.store.count}/{self.store.capacity} particles, "
+            f"t={self.time:.4g} s, integrator={self.integrator.value!r})"
+        )

@@ -66,9 +66,15 @@ class Collider:
 
     kind: Kind
 
-    def __init__(self, *, restitution: float = 0.5, friction: float = 0.0,
-                 friction_model: Friction | str = Friction.SCALE,
-                 response: Response | str = Response.BOUNCE, inside: bool = False):
+    def __init__(
+        self,
+        *,
+        restitution: float = 0.5,
+        friction: float = 0.0,
+        friction_model: Friction | str = Friction.SCALE,
+        response: Response | str = Response.BOUNCE,
+        inside: bool = False,
+    ):
         self.restitution = check.unit_interval("restitution", restitution)
         self.friction_model = _enum("friction_model", friction_model, Friction)
         if self.friction_model == Friction.SCALE:
@@ -173,8 +179,7 @@ class Box(Collider):
 
     kind = Kind.BOX
 
-    def __init__(self, center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0), *, rotation=None,
-                 **response):
+    def __init__(self, center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0), *, rotation=None, **response):
         super().__init__(**response)
         self.center = check.vector("center", center)
         size = check.vector("size", size)

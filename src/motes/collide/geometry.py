@@ -92,8 +92,7 @@ def penetration(kind, inside, px, py, pz, table, c, one):
 
 
 @device
-def respond(response, friction_model, px, py, pz, vx, vy, vz, depth, nx, ny, nz, table, c, dt,
-            one):
+def respond(response, friction_model, px, py, pz, vx, vy, vz, depth, nx, ny, nz, table, c, dt, one):
     """Push-out and velocity response. Returns the new state and (hit, kill) flags."""
     hit = depth > 0
     if response == _EVENT:
@@ -124,5 +123,13 @@ def respond(response, friction_model, px, py, pz, vx, vy, vz, depth, nx, ny, nz,
         scale = one - hit * (one - kept)
     else:
         scale = one - hit * mu
-    return (px, py, pz, tx * scale + vn_out * nx, ty * scale + vn_out * ny,
-            tz * scale + vn_out * nz, hit, False)
+    return (
+        px,
+        py,
+        pz,
+        tx * scale + vn_out * nx,
+        ty * scale + vn_out * ny,
+        tz * scale + vn_out * nz,
+        hit,
+        False,
+    )

@@ -11,7 +11,23 @@ from .emitter import Emitter, Path
 from .rates import Burst, PerFrame, PerSecond, Rate, ScreenScaled
 
 __all__ = [
-    "Burst", "Cone", "Constant", "Direction", "Distribution", "Emitter", "Function",
-    "Gradient", "Isotropic", "Normal", "Path", "PerFrame", "PerSecond", "Radial", "Rate",
-    "ScreenScaled", "ShapeNormal", "Uniform", "shapes",
+    "Burst",
+    "Cone",
+    "Constant",
+    "Direction",
+    "Distribution",
+    "Emitter",
+    "Function",
+    "Gradient",
+    "Isotropic",
+    "Normal",
+    "Path",
+    "PerFrame",
+    "PerSecond",
+    "Radial",
+    "Rate",
+    "ScreenScaled",
+    "ShapeNormal",
+    "Uniform",
+    "shapes",
 ]

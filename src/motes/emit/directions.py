@@ -42,8 +42,11 @@ class Cone(Direction):
         cos_t = 1 - rng.random(count) * (1 - cos_min)
         sin_t = np.sqrt(np.maximum(0.0, 1 - cos_t**2))
         phi = rng.random(count) * 2 * np.pi
-        return (cos_t[:, None] * self.axis + (sin_t * np.cos(phi))[:, None] * self._u
-                + (sin_t * np.sin(phi))[:, None] * self._v)
+        return (
+            cos_t[:, None] * self.axis
+            + (sin_t * np.cos(phi))[:, None] * self._u
+            + (sin_t * np.sin(phi))[:, None] * self._v
+        )
 
 
 class Isotropic(Cone):

@@ -28,8 +28,9 @@ class Distribution:
 
 
 def _as_values(name, value) -> np.ndarray:
-    arr = np.atleast_1d(np.asarray(parse_color(value) if isinstance(value, str) else value,
-                                   dtype=np.float64))
+    arr = np.atleast_1d(
+        np.asarray(parse_color(value) if isinstance(value, str) else value, dtype=np.float64)
+    )
     if arr.ndim != 1 or not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be a finite number or vector, got {value!r}")
     return arr
@@ -79,7 +80,7 @@ class Uniform(Distribution):
 
 
 class Normal(Distribution):
-    """Normal with ``mean`` and standard deviation ``std``, optionally clipped to ``[low, high]``."""
+    """Normal law (``mean``, standard deviation ``std``), clipped to ``[low, high]`` if given."""
 
     def __init__(self, mean, std, *, low=None, high=None):
         self._mean = _as_values("mean", mean)

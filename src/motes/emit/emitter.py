@@ -68,11 +68,22 @@ class Emitter:
         Initial values of other (user-registered) attributes.
     """
 
-    def __init__(self, shape: Shape | None = None, rate: Rate | None = None, *,
-                 position=(0.0, 0.0, 0.0), lifetime=1.0, speed=1.0,
-                 direction: Direction | None = None, inherit_velocity: float = 0.0,
-                 color=None, size=None, mass=None, rotation=None,
-                 attributes: Mapping[str, Distribution] | None = None):
+    def __init__(
+        self,
+        shape: Shape | None = None,
+        rate: Rate | None = None,
+        *,
+        position=(0.0, 0.0, 0.0),
+        lifetime=1.0,
+        speed=1.0,
+        direction: Direction | None = None,
+        inherit_velocity: float = 0.0,
+        color=None,
+        size=None,
+        mass=None,
+        rotation=None,
+        attributes: Mapping[str, Distribution] | None = None,
+    ):
         self.shape = Point() if shape is None else shape
         if not isinstance(self.shape, Shape):
             raise TypeError(f"shape must be a motes Shape, got {shape!r}")
@@ -92,12 +103,17 @@ class Emitter:
         self.speed = as_distribution("speed", speed)
         self.direction = Cone() if direction is None else direction
         if not isinstance(self.direction, Direction):
-            raise TypeError(f"direction must be a Direction (Cone, ShapeNormal, Radial), got "
-                            f"{direction!r}")
+            raise TypeError(
+                f"direction must be a Direction (Cone, ShapeNormal, Radial), got {direction!r}"
+            )
         self.inherit_velocity = check.real("inherit_velocity", inherit_velocity)
         self.initial: dict[str, Distribution] = {}
-        for name, value in (("color", color), ("size", size), ("mass", mass),
-                            ("rotation", rotation)):
+        for name, value in (
+            ("color", color),
+            ("size", size),
+            ("mass", mass),
+            ("rotation", rotation),
+        ):
             if value is not None:
                 self.initial[name] = as_distribution(name, value)
         if "mass" in self.initial:
@@ -133,8 +149,13 @@ class Emitter:
         base = np.broadcast_to(self.velocity_at(time, dt), (count, 3))
         return self.emit_at(system, np.broadcast_to(origin, (count, 3)), base)
 
-    def emit_at(self, system, origins: np.ndarray, base_velocity: np.ndarray,
-                inherited: Mapping[str, np.ndarray] | None = None) -> slice:
+    def emit_at(
+        self,
+        system,
+        origins: np.ndarray,
+        base_velocity: np.ndarray,
+        inherited: Mapping[str, np.ndarray] | None = None,
+    ) -> slice:
         """Create one particle per row of ``origins`` (k, 3), offset by a shape sample.
 
         ``base_velocity`` (k, 3) [m/s] is added times ``inherit_velocity``; ``inherited``

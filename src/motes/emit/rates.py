@@ -48,8 +48,15 @@ class PerFrame(Rate):
         Frame from which the ramp runs (and before which nothing is emitted).
     """
 
-    def __init__(self, mean: float, variance: float = 0.0, *, delta_mean: float = 0.0,
-                 delta_variance: float = 0.0, start_frame: int = 0):
+    def __init__(
+        self,
+        mean: float,
+        variance: float = 0.0,
+        *,
+        delta_mean: float = 0.0,
+        delta_variance: float = 0.0,
+        start_frame: int = 0,
+    ):
         self.mean = check.non_negative("mean", mean)
         self.variance = check.non_negative("variance", variance)
         if self.variance > self.mean:
@@ -103,8 +110,9 @@ class Burst(Rate):
     ``repeat`` limits the number of bursts (``None``: unlimited when ``every`` is set).
     """
 
-    def __init__(self, count: int, *, at: float = 0.0, every: float | None = None,
-                 repeat: int | None = None):
+    def __init__(
+        self, count: int, *, at: float = 0.0, every: float | None = None, repeat: int | None = None
+    ):
         self.size = check.integer("count", count, low=0)
         self.at = check.non_negative("at", at)
         self.every = None if every is None else check.positive("every", every)
@@ -114,10 +122,7 @@ class Burst(Rate):
         """Number of bursts with firing time < t."""
         if t <= self.at:
             return 0
-        if self.every is None:
-            fired = 1
-        else:
-            fired = math.floor((t - self.at) / self.every - 1e-12) + 1
+        fired = 1 if self.every is None else math.floor((t - self.at) / self.every - 1e-12) + 1
         return fired if self.repeat is None else min(fired, self.repeat)
 
     def count(self, rng, frame, time, dt, emitter=None):

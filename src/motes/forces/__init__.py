@@ -9,6 +9,17 @@ from .springs import Springs
 from .vortex import Vortex
 
 __all__ = [
-    "CallbackForce", "CurlNoise", "Drag", "FieldForce", "FieldTerms", "Force", "ForceJacobian",
-    "Gravity", "QuadraticDrag", "RadialField", "Springs", "Vortex", "Wind",
+    "CallbackForce",
+    "CurlNoise",
+    "Drag",
+    "FieldForce",
+    "FieldTerms",
+    "Force",
+    "ForceJacobian",
+    "Gravity",
+    "QuadraticDrag",
+    "RadialField",
+    "Springs",
+    "Vortex",
+    "Wind",
 ]

@@ -43,7 +43,9 @@ class FieldTerms:
         self.linear_drag += other.linear_drag
         self.linear_drag_wind = self.linear_drag_wind + other.linear_drag_wind
         if other.quadratic_drag:
-            if self.quadratic_drag and not np.array_equal(self.quadratic_wind, other.quadratic_wind):
+            if self.quadratic_drag and not np.array_equal(
+                self.quadratic_wind, other.quadratic_wind
+            ):
                 raise ValueError(
                     "quadratic drags toward different wind velocities cannot be combined; "
                     "use one QuadraticDrag per system"
@@ -117,8 +119,9 @@ class Force(ABC):
         store.require(*self.reads)
 
     @abstractmethod
-    def accumulate(self, store, position: np.ndarray, velocity: np.ndarray, time: float,
-                   out: np.ndarray) -> None:
+    def accumulate(
+        self, store, position: np.ndarray, velocity: np.ndarray, time: float, out: np.ndarray
+    ) -> None:
         """Add this force [N] on each live particle into ``out``.
 
         Parameters
@@ -138,5 +141,32 @@ class Force(ABC):
         """Block-sparse ∂f/∂x and ∂f/∂v, or None when this force has no Jacobian."""
         return None
 
-    def remap(self, new_index: np.ndarray) -> None:
-        """Particles died and the store compacted; ``new_index[old] = new or -1``."""
+    def remap(self, new_index: np.ndarray) -> None:  # noqa: B027 (optional hook)
+        """Particles died and the store compacted; ``new_index[old] = new or -1``.
+
+        Only forces that hold particle indices (springs) override this.
+        """
+
+
+def particle_mass(store, n: int, dtype) -> np.ndarray:
+    """Masses [kg] of the first ``n`` particles, or an empty array meaning "all 1 kg".
+
+    The empty array lets the kernels skip a memory pass over a vector of ones.
+    """
+    if store.has("mass"):
+        return np.asarray(store.raw("mass")[:n], dtype=dtype)
+    return np.empty(0, dtype=dtype)
+
+
+def check_buffers(position: np.ndarray, out: np.ndarray) -> None:
+    """Raise ``ValueError`` unless ``position`` is ``(3, n)`` and ``out`` matches it.
+
+    Launchers pass such arrays to kernels row by row (``*position``): a row of the
+    store's ``(3, capacity)`` buffer is contiguous, while the ``(3, n)`` slice itself is
+    not, and a kernel compiled for a non-contiguous 2D array does not vectorise (3-6x
+    slower here).
+    """
+    if position.ndim != 2 or position.shape[0] != 3:
+        raise ValueError(f"position must have shape (3, n), got {position.shape}")
+    if out.shape != position.shape:
+        raise ValueError(f"out must have the shape of position {position.shape}, got {out.shape}")

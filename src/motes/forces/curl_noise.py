@@ -28,9 +28,8 @@ import numba
 import numpy as np
 
 from .. import _validate as check
-from .._jit import device, parallel_kernel, serial_kernel
-from .base import Force
-from .radial import check_buffers, particle_mass
+from .._jit import block_bounds, block_count, device, parallel_kernel, serial_kernel
+from .base import Force, check_buffers, particle_mass
 
 #: Perlin noise repeats every 256 lattice cells along each axis.
 PERIOD = 256
@@ -69,8 +68,8 @@ class CurlNoise(Force):
     Parameters
     ----------
     strength : float
-        Acceleration scale [m/s^2]; typical magnitudes of the field are about
-        ``strength`` (the noise gradient is O(1) per lattice unit).
+        Acceleration scale [m/s^2]. The field's RMS magnitude is about 1.7 ``strength``
+        with one octave and 2 ``strength`` with many (its maximum about 5 ``strength``).
     scale : float
         Size of the largest eddies [m] > 0: one noise lattice cell.
     seed : int
@@ -90,8 +89,15 @@ class CurlNoise(Force):
 
     reads = ("position",)
 
-    def __init__(self, strength: float, scale: float, *, seed: int = 0, octaves: int = 1,
-                 time_scale: float = 0.0):
+    def __init__(
+        self,
+        strength: float,
+        scale: float,
+        *,
+        seed: int = 0,
+        octaves: int = 1,
+        time_scale: float = 0.0,
+    ):
         self.strength = check.real("strength", strength)
         self.scale = check.positive("scale", scale)
         self.seed = check.integer("seed", seed, low=0)
@@ -117,7 +123,7 @@ class CurlNoise(Force):
         check_buffers(position, out)
         real = position.dtype.type
         _curl_noise_kernel(
-            position,
+            *position,
             particle_mass(store, position.shape[1], position.dtype),
             self.permutations,
             self._gradients.astype(position.dtype),
@@ -125,7 +131,7 @@ class CurlNoise(Force):
             real(1.0 / self.scale),
             real(self._shift(time)),
             self.octaves,
-            out,
+            *out,
         )
 
     def potential(self, position: np.ndarray, time: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
@@ -153,9 +159,16 @@ class CurlNoise(Force):
         n = position.shape[1]
         psi = np.empty((3, n), dtype=position.dtype)
         gradient = np.empty((3, 3, n), dtype=position.dtype)
-        _potential_kernel(position, self.permutations, self._gradients.astype(position.dtype),
-                          real(1.0 / self.scale), real(self._shift(time)), self.octaves,
-                          psi, gradient)
+        _potential_kernel(
+            *position,
+            self.permutations,
+            self._gradients.astype(position.dtype),
+            real(1.0 / self.scale),
+            real(self._shift(time)),
+            self.octaves,
+            psi,
+            gradient,
+        )
         return psi, gradient
 
 
@@ -182,6 +195,24 @@ def _trilerp(u, v, w, c000, c100, c010, c110, c001, c101, c011, c111):
         w,
         _lerp(v, _lerp(u, c000, c100), _lerp(u, c010, c110)),
         _lerp(v, _lerp(u, c001, c101), _lerp(u, c011, c111)),
+    )
+
+
+@serial_kernel
+def _blend_gradients(u, v, w, grads, corners, j):
+    """Component ``j`` of the corner gradients ``grads[corners]``, blended like values."""
+    return _trilerp(
+        u,
+        v,
+        w,
+        grads[corners[0], j],
+        grads[corners[1], j],
+        grads[corners[2], j],
+        grads[corners[3], j],
+        grads[corners[4], j],
+        grads[corners[5], j],
+        grads[corners[6], j],
+        grads[corners[7], j],
     )
 
 
@@ -239,18 +270,10 @@ def _noise(px, py, pz, perm, k, grads, real):
     dndu = _lerp(w, _lerp(v, n100 - n000, n110 - n010), _lerp(v, n101 - n001, n111 - n011))
     dndv = _lerp(w, _lerp(u, n010 - n000, n110 - n100), _lerp(u, n011 - n001, n111 - n101))
     dndw = _lerp(v, _lerp(u, n001 - n000, n101 - n100), _lerp(u, n011 - n010, n111 - n110))
-    gx = du * dndu + _trilerp(
-        u, v, w, grads[h000, 0], grads[h100, 0], grads[h010, 0], grads[h110, 0],
-        grads[h001, 0], grads[h101, 0], grads[h011, 0], grads[h111, 0],
-    )
-    gy = dv * dndv + _trilerp(
-        u, v, w, grads[h000, 1], grads[h100, 1], grads[h010, 1], grads[h110, 1],
-        grads[h001, 1], grads[h101, 1], grads[h011, 1], grads[h111, 1],
-    )
-    gz = dw * dndw + _trilerp(
-        u, v, w, grads[h000, 2], grads[h100, 2], grads[h010, 2], grads[h110, 2],
-        grads[h001, 2], grads[h101, 2], grads[h011, 2], grads[h111, 2],
-    )
+    corners = (h000, h100, h010, h110, h001, h101, h011, h111)
+    gx = du * dndu + _blend_gradients(u, v, w, grads, corners, 0)
+    gy = dv * dndv + _blend_gradients(u, v, w, grads, corners, 1)
+    gz = dw * dndw + _blend_gradients(u, v, w, grads, corners, 2)
     return value, gx, gy, gz
 
 
@@ -265,8 +288,7 @@ def _potential(px, py, pz, perm, k, grads, octaves, real):
     gy = real(0)
     gz = real(0)
     for _ in range(octaves):
-        n, nx, ny, nz = _noise(frequency * px, frequency * py, frequency * pz, perm, k, grads,
-                               real)
+        n, nx, ny, nz = _noise(frequency * px, frequency * py, frequency * pz, perm, k, grads, real)
         value += amplitude / frequency * n
         gx += amplitude * nx
         gy += amplitude * ny
@@ -277,44 +299,54 @@ def _potential(px, py, pz, perm, k, grads, octaves, real):
 
 
 @parallel_kernel
-def _curl_noise_kernel(position, mass, perm, grads, strength, inv_scale, shift, octaves, out):
+def _curl_noise_kernel(
+    x, y, z, mass, perm, grads, strength, inv_scale, shift, octaves, out_x, out_y, out_z
+):
     """``out[:, i] += m_i strength (∇_p × ψ)(x_i / scale)``."""
-    real = position.dtype.type
-    n = position.shape[1]
+    real = x.dtype.type
     uniform = mass.shape[0] == 0
-    for i in numba.prange(n):
-        px = position[0, i] * inv_scale
-        py = position[1, i] * inv_scale
-        pz = position[2, i] * inv_scale
-        # Potential k drifts along axis k (module docstring); only its gradient is used.
-        _, _, d0y, d0z = _potential(px + shift, py, pz, perm, 0, grads, octaves, real)
-        _, d1x, _, d1z = _potential(px, py + shift, pz, perm, 1, grads, octaves, real)
-        _, d2x, d2y, _ = _potential(px, py, pz + shift, perm, 2, grads, octaves, real)
-        scale = strength
-        if not uniform:
-            scale *= mass[i]
-        out[0, i] += scale * (d2y - d1z)
-        out[1, i] += scale * (d0z - d2x)
-        out[2, i] += scale * (d1x - d0y)
+    n = x.shape[0]
+    for block in numba.prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            px = x[i] * inv_scale
+            py = y[i] * inv_scale
+            pz = z[i] * inv_scale
+            # Potential k drifts along axis k (module docstring); only its gradient is used.
+            _, _, d0y, d0z = _potential(px + shift, py, pz, perm, 0, grads, octaves, real)
+            _, d1x, _, d1z = _potential(px, py + shift, pz, perm, 1, grads, octaves, real)
+            _, d2x, d2y, _ = _potential(px, py, pz + shift, perm, 2, grads, octaves, real)
+            scale = strength
+            if not uniform:
+                scale *= mass[i]
+            out_x[i] += scale * (d2y - d1z)
+            out_y[i] += scale * (d0z - d2x)
+            out_z[i] += scale * (d1x - d0y)
 
 
 @parallel_kernel
-def _potential_kernel(position, perm, grads, inv_scale, shift, octaves, psi, gradient):
+def _potential_kernel(x, y, z, perm, grads, inv_scale, shift, octaves, psi, gradient):
     """``psi[k, i] = ψ_k(p_i)`` and ``gradient[k, j, i] = ∂ψ_k/∂p_j`` at ``p = x / scale``."""
-    real = position.dtype.type
-    n = position.shape[1]
-    for i in numba.prange(n):
-        px = position[0, i] * inv_scale
-        py = position[1, i] * inv_scale
-        pz = position[2, i] * inv_scale
-        for k in range(3):
-            value, gx, gy, gz = _potential(
-                px + (shift if k == 0 else real(0)),
-                py + (shift if k == 1 else real(0)),
-                pz + (shift if k == 2 else real(0)),
-                perm, k, grads, octaves, real,
-            )
-            psi[k, i] = value
-            gradient[k, 0, i] = gx
-            gradient[k, 1, i] = gy
-            gradient[k, 2, i] = gz
+    real = x.dtype.type
+    n = x.shape[0]
+    for block in numba.prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            px = x[i] * inv_scale
+            py = y[i] * inv_scale
+            pz = z[i] * inv_scale
+            for k in range(3):
+                value, gx, gy, gz = _potential(
+                    px + (shift if k == 0 else real(0)),
+                    py + (shift if k == 1 else real(0)),
+                    pz + (shift if k == 2 else real(0)),
+                    perm,
+                    k,
+                    grads,
+                    octaves,
+                    real,
+                )
+                psi[k, i] = value
+                gradient[k, 0, i] = gx
+                gradient[k, 1, i] = gy
+                gradient[k, 2, i] = gz

@@ -50,8 +50,9 @@ class Drag(FieldForce):
         self.wind = check.vector("wind", wind)
 
     def terms(self) -> FieldTerms:
-        return FieldTerms(linear_drag=self.coefficient,
-                          linear_drag_wind=self.coefficient * self.wind)
+        return FieldTerms(
+            linear_drag=self.coefficient, linear_drag_wind=self.coefficient * self.wind
+        )
 
     def jacobian(self, velocity, inv_mass=None) -> ForceJacobian:
         n = velocity.shape[0]

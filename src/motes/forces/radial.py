@@ -1,4 +1,4 @@
-r"""Radial fields: softened inverse-square attractors and repellers, and linear springs to a point.
+r"""Radial fields: softened inverse-square attractors and repellers, and linear pulls.
 
 The inverse-square field is the softened gravitational acceleration of a point mass with
 ``strength = G M``: minus the gradient of the Plummer potential ``-s / sqrt(r^2 + ε^2)``
@@ -18,8 +18,8 @@ import numba
 import numpy as np
 
 from .. import _validate as check
-from .._jit import parallel_kernel
-from .base import Force, ForceJacobian
+from .._jit import block_bounds, block_count, parallel_kernel
+from .base import Force, ForceJacobian, check_buffers, particle_mass
 
 FALLOFFS = ("inverse_square", "linear")
 
@@ -49,8 +49,9 @@ class RadialField(Force):
 
     reads = ("position",)
 
-    def __init__(self, center, strength: float, *, softening: float = 0.01,
-                 falloff: str = "inverse_square"):
+    def __init__(
+        self, center, strength: float, *, softening: float = 0.01, falloff: str = "inverse_square"
+    ):
         self.center = check.vector("center", center)
         self.strength = check.real("strength", strength)
         self.softening = check.positive("softening", softening)
@@ -68,10 +69,11 @@ class RadialField(Force):
         center = self.center.astype(position.dtype)
         mass = particle_mass(store, position.shape[1], position.dtype)
         if self.falloff == "inverse_square":
-            _inverse_square_kernel(position, mass, center, real(self.strength),
-                                   real(self.softening**2), out)
+            _inverse_square_kernel(
+                *position, mass, center, real(self.strength), real(self.softening**2), *out
+            )
         else:
-            _linear_kernel(position, mass, center, real(self.strength), out)
+            _linear_kernel(*position, mass, center, real(self.strength), *out)
 
     def jacobian(self, store, position, velocity) -> ForceJacobian:
         """Diagonal blocks ∂f_i/∂x_i [N/m] (float64); ∂f/∂v = 0.
@@ -95,51 +97,37 @@ class RadialField(Force):
         return ForceJacobian(idx, idx, dfdx, np.zeros((n, 3, 3)))
 
 
-def particle_mass(store, n: int, dtype) -> np.ndarray:
-    """Masses [kg] of the first ``n`` particles, or an empty array meaning "all 1 kg".
-
-    The empty array lets the kernels skip a memory pass over a vector of ones.
-    """
-    if store.has("mass"):
-        return np.asarray(store.raw("mass")[:n], dtype=dtype)
-    return np.empty(0, dtype=dtype)
-
-
-def check_buffers(position: np.ndarray, out: np.ndarray) -> None:
-    """Raise ``ValueError`` unless ``position`` is ``(3, n)`` and ``out`` matches it."""
-    if position.ndim != 2 or position.shape[0] != 3:
-        raise ValueError(f"position must have shape (3, n), got {position.shape}")
-    if out.shape != position.shape:
-        raise ValueError(f"out must have the shape of position {position.shape}, got {out.shape}")
-
-
 @parallel_kernel
-def _inverse_square_kernel(position, mass, center, strength, softening2, out):
+def _inverse_square_kernel(x, y, z, mass, center, strength, softening2, out_x, out_y, out_z):
     """``out[:, i] += m_i s (c - x_i) / (|c - x_i|^2 + ε^2)^{3/2}``."""
-    n = position.shape[1]
     uniform = mass.shape[0] == 0
-    for i in numba.prange(n):
-        dx = center[0] - position[0, i]
-        dy = center[1] - position[1, i]
-        dz = center[2] - position[2, i]
-        d = dx * dx + dy * dy + dz * dz + softening2
-        scale = strength / (d * np.sqrt(d))
-        if not uniform:
-            scale *= mass[i]
-        out[0, i] += scale * dx
-        out[1, i] += scale * dy
-        out[2, i] += scale * dz
+    n = x.shape[0]
+    for block in numba.prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            dx = center[0] - x[i]
+            dy = center[1] - y[i]
+            dz = center[2] - z[i]
+            d = dx * dx + dy * dy + dz * dz + softening2
+            scale = strength / (d * np.sqrt(d))
+            if not uniform:
+                scale *= mass[i]
+            out_x[i] += scale * dx
+            out_y[i] += scale * dy
+            out_z[i] += scale * dz
 
 
 @parallel_kernel
-def _linear_kernel(position, mass, center, strength, out):
+def _linear_kernel(x, y, z, mass, center, strength, out_x, out_y, out_z):
     """``out[:, i] += m_i s (c - x_i)``."""
-    n = position.shape[1]
     uniform = mass.shape[0] == 0
-    for i in numba.prange(n):
-        scale = strength
-        if not uniform:
-            scale *= mass[i]
-        out[0, i] += scale * (center[0] - position[0, i])
-        out[1, i] += scale * (center[1] - position[1, i])
-        out[2, i] += scale * (center[2] - position[2, i])
+    n = x.shape[0]
+    for block in numba.prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            scale = strength
+            if not uniform:
+                scale *= mass[i]
+            out_x[i] += scale * (center[0] - x[i])
+            out_y[i] += scale * (center[1] - y[i])
+            out_z[i] += scale * (center[2] - z[i])

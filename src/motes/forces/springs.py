@@ -27,9 +27,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .._jit import parallel_kernel
-from .base import Force, ForceJacobian
-from .radial import check_buffers
+from .._jit import block_bounds, block_count, parallel_kernel
+from .base import Force, ForceJacobian, check_buffers
 
 
 class Springs(Force):
@@ -112,9 +111,12 @@ class Springs(Force):
     def accumulate(self, store, position, velocity, time, out) -> None:
         self._check(position, velocity, out)
         rest_length, stiffness, damping, spring_force = self._parameters(position.dtype)
-        _spring_force_kernel(position, velocity, self.pairs, rest_length, stiffness, damping,
-                             spring_force)
-        _gather_kernel(spring_force, self._touched, self._offsets, self._entries, out)
+        _spring_force_kernel(
+            *position, *velocity, self.pairs, rest_length, stiffness, damping, spring_force
+        )
+        _gather_kernel(
+            spring_force, self._touched, self._offsets[:-1], self._offsets[1:], self._entries, *out
+        )
 
     def jacobian(self, store, position, velocity) -> ForceJacobian:
         """Analytic ∂f/∂x [N/m] and ∂f/∂v [N s/m] (float64), four blocks per spring.
@@ -139,8 +141,8 @@ class Springs(Force):
         d = (x[:, a] - x[:, b]).T  # (m, 3)
         dv = (v[:, a] - v[:, b]).T
         length = np.linalg.norm(d, axis=1)
-        live = length > 0
-        safe = np.where(live, length, 1.0)
+        nonzero = length > 0
+        safe = np.where(nonzero, length, 1.0)
         unit = d / safe[:, None]
         eye = np.eye(3)
         p = unit[:, :, None] * unit[:, None, :]
@@ -153,12 +155,14 @@ class Springs(Force):
         dfdx = -ks * (p + (1.0 - ratio) * q) - kd / safe[:, None, None] * (
             unit[:, :, None] * q_dv[:, None, :] + closing[:, None, None] * q
         )
-        dfdx[~live] = -self.stiffness[~live, None, None] * eye
+        dfdx[~nonzero] = -self.stiffness[~nonzero, None, None] * eye
         dfdv = -kd * p
         rows = np.concatenate([a, a, b, b])
         cols = np.concatenate([a, b, a, b])
         return ForceJacobian(
-            rows, cols, np.concatenate([dfdx, -dfdx, -dfdx, dfdx]),
+            rows,
+            cols,
+            np.concatenate([dfdx, -dfdx, -dfdx, dfdx]),
             np.concatenate([dfdv, -dfdv, -dfdv, dfdv]),
         )
 
@@ -169,8 +173,14 @@ class Springs(Force):
         stretch = np.linalg.norm(d, axis=0) - self.rest_length
         return float(0.5 * np.sum(self.stiffness * stretch**2))
 
-    def remap(self, new_index: np.ndarray) -> None:
-        """Drop springs with a dead end (``new_index == -1``) and renumber the rest."""
+    def remap(self, new_index: np.ndarray | None) -> None:
+        """Drop springs with a dead end (``new_index == -1``) and renumber the rest.
+
+        ``new_index`` is what :meth:`ParticleStore.compact` returns; None (nobody died)
+        changes nothing.
+        """
+        if new_index is None:
+            return
         new_index = np.asarray(new_index, dtype=np.int64)
         if self._end > new_index.shape[0]:
             raise ValueError(
@@ -179,8 +189,7 @@ class Springs(Force):
             )
         ends = new_index[self.pairs]
         keep = np.all(ends >= 0, axis=1)
-        self._set(ends[keep], self.rest_length[keep], self.stiffness[keep],
-                  self.damping[keep])
+        self._set(ends[keep], self.rest_length[keep], self.stiffness[keep], self.damping[keep])
 
 
 def _pairs(value) -> np.ndarray:
@@ -236,54 +245,58 @@ def _incidence(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 @parallel_kernel
-def _spring_force_kernel(position, velocity, pairs, rest_length, stiffness, damping,
-                         spring_force):
+def _spring_force_kernel(x, y, z, vx, vy, vz, pairs, rest_length, stiffness, damping, spring_force):
     """``spring_force[:, k]`` = force on end ``a`` of spring ``k`` [N]."""
-    zero = position.dtype.type(0)
-    one = position.dtype.type(1)
-    for k in numba.prange(pairs.shape[0]):
-        a = pairs[k, 0]
-        b = pairs[k, 1]
-        dx = position[0, a] - position[0, b]
-        dy = position[1, a] - position[1, b]
-        dz = position[2, a] - position[2, b]
-        length = np.sqrt(dx * dx + dy * dy + dz * dz)
-        # A zero-length spring has no direction: a zero unit vector, so no force and no NaN.
-        inv_length = one / length if length > zero else zero
-        ux = dx * inv_length
-        uy = dy * inv_length
-        uz = dz * inv_length
-        closing = (
-            (velocity[0, a] - velocity[0, b]) * ux
-            + (velocity[1, a] - velocity[1, b]) * uy
-            + (velocity[2, a] - velocity[2, b]) * uz
-        )
-        magnitude = stiffness[k] * (length - rest_length[k]) + damping[k] * closing
-        spring_force[0, k] = -magnitude * ux
-        spring_force[1, k] = -magnitude * uy
-        spring_force[2, k] = -magnitude * uz
+    zero = x.dtype.type(0)
+    one = x.dtype.type(1)
+    m = pairs.shape[0]
+    for block in numba.prange(block_count(m)):
+        start, stop = block_bounds(block, m)
+        for k in range(start, stop):
+            a = pairs[k, 0]
+            b = pairs[k, 1]
+            dx = x[a] - x[b]
+            dy = y[a] - y[b]
+            dz = z[a] - z[b]
+            length = np.sqrt(dx * dx + dy * dy + dz * dz)
+            # A zero-length spring has no direction: a zero unit vector, so no force and no NaN.
+            inv_length = one / length if length > zero else zero
+            ux = dx * inv_length
+            uy = dy * inv_length
+            uz = dz * inv_length
+            closing = (vx[a] - vx[b]) * ux + (vy[a] - vy[b]) * uy + (vz[a] - vz[b]) * uz
+            magnitude = stiffness[k] * (length - rest_length[k]) + damping[k] * closing
+            spring_force[0, k] = -magnitude * ux
+            spring_force[1, k] = -magnitude * uy
+            spring_force[2, k] = -magnitude * uz
 
 
 @parallel_kernel
-def _gather_kernel(spring_force, touched, offsets, entries, out):
-    """``out[:, touched[t]] +=`` the signed forces of its springs, in spring order."""
+def _gather_kernel(spring_force, touched, first, last, entries, out_x, out_y, out_z):
+    """``out[:, touched[t]] +=`` the signed forces of its springs, in spring order.
+
+    Its spring ends are ``entries[first[t]:last[t]]`` (CSR offsets split in two).
+    """
     zero = spring_force.dtype.type(0)
-    for t in numba.prange(touched.shape[0]):
-        fx = zero
-        fy = zero
-        fz = zero
-        for j in range(offsets[t], offsets[t + 1]):
-            e = entries[j]
-            k = e >> 1
-            if e & 1:  # end b feels -f_a
-                fx -= spring_force[0, k]
-                fy -= spring_force[1, k]
-                fz -= spring_force[2, k]
-            else:
-                fx += spring_force[0, k]
-                fy += spring_force[1, k]
-                fz += spring_force[2, k]
-        i = touched[t]
-        out[0, i] += fx
-        out[1, i] += fy
-        out[2, i] += fz
+    u = touched.shape[0]
+    for block in numba.prange(block_count(u)):
+        start, stop = block_bounds(block, u)
+        for t in range(start, stop):
+            fx = zero
+            fy = zero
+            fz = zero
+            for j in range(first[t], last[t]):
+                e = entries[j]
+                k = e >> 1
+                if e & 1:  # end b feels -f_a
+                    fx -= spring_force[0, k]
+                    fy -= spring_force[1, k]
+                    fz -= spring_force[2, k]
+                else:
+                    fx += spring_force[0, k]
+                    fy += spring_force[1, k]
+                    fz += spring_force[2, k]
+            i = touched[t]
+            out_x[i] += fx
+            out_y[i] += fy
+            out_z[i] += fz

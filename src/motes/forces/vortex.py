@@ -7,10 +7,11 @@ here as an acceleration):
 
 .. math:: a(x) = \frac{s \, \hat a × r_⊥ - p \, r_⊥}{|r_⊥|^2 + R^2}
 
-with ``r_⊥`` the offset of ``x`` from the axis line. The swirl's magnitude ``|s| ρ / (ρ^2 + R^2)``
-(``ρ = |r_⊥|``) grows linearly in the core like a solid-body rotation, peaks at
-``ρ = R`` with ``|s| / (2R)``, and decays as ``1/ρ`` outside like a free (potential)
-vortex; unlike the Rankine vortex it is smooth at ``ρ = R`` and finite everywhere.
+with ``r_⊥`` the offset of ``x`` from the axis line. The swirl's magnitude
+``|s| ρ / (ρ^2 + R^2)`` (``ρ = |r_⊥|``) grows linearly in the core like a solid-body
+rotation, peaks at ``ρ = R`` with ``|s| / (2R)``, and decays as ``1/ρ`` outside like a
+free (potential) vortex; unlike the Rankine vortex it is smooth at ``ρ = R`` and finite
+everywhere.
 """
 
 from __future__ import annotations
@@ -18,9 +19,8 @@ from __future__ import annotations
 import numba
 
 from .. import _validate as check
-from .._jit import parallel_kernel
-from .base import Force
-from .radial import check_buffers, particle_mass
+from .._jit import block_bounds, block_count, parallel_kernel
+from .base import Force, check_buffers, particle_mass
 
 
 class Vortex(Force):
@@ -40,8 +40,8 @@ class Vortex(Force):
         Core radius ``R`` > 0 [m].
     pull : float
         ``p`` [m^2/s^2]: radial acceleration ``p ρ / (ρ^2 + R^2)`` toward the axis (away
-        from it when negative). It has the tangential profile, so ``p / s`` is the tangent
-        of the constant inflow angle of the spiral the field draws.
+        from it when negative). It has the tangential profile, so the field lines are
+        logarithmic spirals that cross every circle about the axis at ``atan(p / s)``.
 
     Notes
     -----
@@ -69,35 +69,37 @@ class Vortex(Force):
         check_buffers(position, out)
         real = position.dtype.type
         _vortex_kernel(
-            position,
+            *position,
             particle_mass(store, position.shape[1], position.dtype),
             self.center.astype(position.dtype),
             self.axis.astype(position.dtype),
             real(self.strength),
             real(self.pull),
             real(self.radius**2),
-            out,
+            *out,
         )
 
 
 @parallel_kernel
-def _vortex_kernel(position, mass, center, axis, strength, pull, radius2, out):
+def _vortex_kernel(x, y, z, mass, center, axis, strength, pull, radius2, out_x, out_y, out_z):
     """``out[:, i] += m_i (s â × r_⊥ - p r_⊥) / (|r_⊥|^2 + R^2)``."""
-    n = position.shape[1]
     uniform = mass.shape[0] == 0
-    one = position.dtype.type(1)  # a float64 literal would promote float32 arithmetic
+    one = x.dtype.type(1)  # a float64 literal would promote float32 arithmetic
     ax, ay, az = axis[0], axis[1], axis[2]
-    for i in numba.prange(n):
-        rx = position[0, i] - center[0]
-        ry = position[1, i] - center[1]
-        rz = position[2, i] - center[2]
-        along = rx * ax + ry * ay + rz * az
-        px = rx - along * ax
-        py = ry - along * ay
-        pz = rz - along * az
-        scale = one / (px * px + py * py + pz * pz + radius2)
-        if not uniform:
-            scale *= mass[i]
-        out[0, i] += scale * (strength * (ay * pz - az * py) - pull * px)
-        out[1, i] += scale * (strength * (az * px - ax * pz) - pull * py)
-        out[2, i] += scale * (strength * (ax * py - ay * px) - pull * pz)
+    n = x.shape[0]
+    for block in numba.prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            rx = x[i] - center[0]
+            ry = y[i] - center[1]
+            rz = z[i] - center[2]
+            along = rx * ax + ry * ay + rz * az
+            px = rx - along * ax
+            py = ry - along * ay
+            pz = rz - along * az
+            scale = one / (px * px + py * py + pz * pz + radius2)
+            if not uniform:
+                scale *= mass[i]
+            out_x[i] += scale * (strength * (ay * pz - az * py) - pull * px)
+            out_y[i] += scale * (strength * (az * px - ax * pz) - pull * py)
+            out_z[i] += scale * (strength * (ax * py - ay * px) - pull * pz)

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from enum import Enum
+from enum import StrEnum
 
 from .kernels import Scheme
 
 
-class Integrator(str, Enum):
+class Integrator(StrEnum):
     """Integration scheme of a :class:`~motes.ParticleSystem`.
 
     ========================  ==================================================  =====
@@ -20,6 +20,11 @@ class Integrator(str, Enum):
     ``velocity_verlet``       x += h v + h²/2 a;  v += h/2 (a + a(x'))             2
     ``rk4``                   classical Runge-Kutta on (x, v)                      4
     ========================  ==================================================  =====
+
+    Position Verlet is run in its velocity form: the stored velocity stands for
+    ``(x - x_prev)/h`` and is updated to ``(x' - x)/h``, which is the same sequence of
+    positions as Jakobsen's update, while letting collisions (and users) change
+    velocities directly without a ``prev_position`` buffer.
 
     The first three run in the single fused kernel; the last two evaluate forces several
     times per step. For velocity-dependent forces, ``velocity_verlet`` evaluates ``a(x')``

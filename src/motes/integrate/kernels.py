@@ -18,12 +18,12 @@ literal would promote float32 arithmetic to float64).
 from __future__ import annotations
 
 from enum import IntEnum
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 from numba import prange
 
-from .._jit import device, parallel_kernel
+from .._jit import block_bounds, block_count, device, parallel_kernel
 from ..collide.geometry import penetration, respond
 
 
@@ -60,13 +60,19 @@ def field_acceleration(vx, vy, vz, w, params, quadratic):
     return ax, ay, az
 
 
-@lru_cache(maxsize=None)
-def step_kernel(scheme: int, colliders: tuple, has_force: bool, has_inv_mass: bool,
-                quadratic: bool, track_hits: bool):
+@cache
+def step_kernel(
+    scheme: int,
+    colliders: tuple,
+    has_force: bool,
+    has_inv_mass: bool,
+    quadratic: bool,
+    track_hits: bool,
+):
     """Compile (or fetch) the fused step kernel for one structure.
 
     The returned kernel has the signature
-    ``kernel(n, pos, vel, prev, age, life, inv_mass, force, params, table, keep, hits) -> dead``
+    ``kernel(n, pos, vel, age, life, inv_mass, force, params, table, keep, hits) -> dead``
     with vectors ``(3, capacity)``, scalars ``(capacity,)``; unused arrays may be any
     array of the right rank. ``keep[i]`` is written False for particles that die (age
     past lifetime, or a KILL collider); ``hits[i]`` gets the index of the last collider
@@ -83,97 +89,108 @@ def step_kernel(scheme: int, colliders: tuple, has_force: bool, has_inv_mass: bo
     verlet = scheme == Scheme.VERLET
 
     @parallel_kernel
-    def kernel(n, pos, vel, prev, age, life, inv_mass, force, params, table, keep, hits):
+    def kernel(n, pos, vel, age, life, inv_mass, force, params, table, keep, hits):
         dt = params[11]
         one = params[ONE]
         retain = one - params[12]
         dead = 0
-        for i in prange(n):
-            px = pos[0, i]
-            py = pos[1, i]
-            pz = pos[2, i]
-            vx = vel[0, i]
-            vy = vel[1, i]
-            vz = vel[2, i]
-            w = inv_mass[i] if has_inv_mass else one
-            if explicit or semi_implicit or verlet:
-                ax, ay, az = field_acceleration(vx, vy, vz, w, params, quadratic)
-                if has_force:
-                    ax += w * force[0, i]
-                    ay += w * force[1, i]
-                    az += w * force[2, i]
-            if explicit:
-                px += vx * dt
-                py += vy * dt
-                pz += vz * dt
-                vx += ax * dt
-                vy += ay * dt
-                vz += az * dt
-            elif semi_implicit:
-                vx += ax * dt
-                vy += ay * dt
-                vz += az * dt
-                px += vx * dt
-                py += vy * dt
-                pz += vz * dt
-            elif verlet:
-                # Jakobsen 2001: x' = x + (x - x_prev)(1 - damping) + a dt²
-                ox = px
-                oy = py
-                oz = pz
-                px += (px - prev[0, i]) * retain + ax * dt * dt
-                py += (py - prev[1, i]) * retain + ay * dt * dt
-                pz += (pz - prev[2, i]) * retain + az * dt * dt
-                vx = (px - ox) / dt
-                vy = (py - oy) / dt
-                vz = (pz - oz) / dt
-            killed = False
-            last_hit = -1
-            for c in range(n_colliders):
-                depth, nx, ny, nz = penetration(kinds[c], insides[c], px, py, pz, table, c, one)
-                px, py, pz, vx, vy, vz, hit, kill = respond(
-                    responses[c], frictions[c], px, py, pz, vx, vy, vz, depth, nx, ny, nz,
-                    table, c, dt, one)
-                killed |= kill
+        for block in prange(block_count(n)):
+            start, stop = block_bounds(block, n)
+            for i in range(start, stop):
+                px = pos[0, i]
+                py = pos[1, i]
+                pz = pos[2, i]
+                vx = vel[0, i]
+                vy = vel[1, i]
+                vz = vel[2, i]
+                w = inv_mass[i] if has_inv_mass else one
+                if explicit or semi_implicit or verlet:
+                    ax, ay, az = field_acceleration(vx, vy, vz, w, params, quadratic)
+                    if has_force:
+                        ax += w * force[0, i]
+                        ay += w * force[1, i]
+                        az += w * force[2, i]
+                if explicit:
+                    px += vx * dt
+                    py += vy * dt
+                    pz += vz * dt
+                    vx += ax * dt
+                    vy += ay * dt
+                    vz += az * dt
+                elif semi_implicit:
+                    vx += ax * dt
+                    vy += ay * dt
+                    vz += az * dt
+                    px += vx * dt
+                    py += vy * dt
+                    pz += vz * dt
+                elif verlet:
+                    # Jakobsen 2001: x' = x + (x - x_prev)(1 - damping) + a dt², with the
+                    # stored velocity standing for (x - x_prev)/dt; then v = (x' - x)/dt.
+                    vx = vx * retain + ax * dt
+                    vy = vy * retain + ay * dt
+                    vz = vz * retain + az * dt
+                    px += vx * dt
+                    py += vy * dt
+                    pz += vz * dt
+                killed = False
+                last_hit = -1
+                for c in range(n_colliders):
+                    depth, nx, ny, nz = penetration(kinds[c], insides[c], px, py, pz, table, c, one)
+                    px, py, pz, vx, vy, vz, hit, kill = respond(
+                        responses[c],
+                        frictions[c],
+                        px,
+                        py,
+                        pz,
+                        vx,
+                        vy,
+                        vz,
+                        depth,
+                        nx,
+                        ny,
+                        nz,
+                        table,
+                        c,
+                        dt,
+                        one,
+                    )
+                    killed |= kill
+                    if track_hits:
+                        last_hit = c if hit else last_hit
+                pos[0, i] = px
+                pos[1, i] = py
+                pos[2, i] = pz
+                vel[0, i] = vx
+                vel[1, i] = vy
+                vel[2, i] = vz
                 if track_hits:
-                    last_hit = c if hit else last_hit
-            pos[0, i] = px
-            pos[1, i] = py
-            pos[2, i] = pz
-            vel[0, i] = vx
-            vel[1, i] = vy
-            vel[2, i] = vz
-            if verlet:
-                # The previous position that reproduces the (collision-corrected) velocity.
-                prev[0, i] = px - vx * dt
-                prev[1, i] = py - vy * dt
-                prev[2, i] = pz - vz * dt
-            if track_hits:
-                hits[i] = last_hit
-            a = age[i] + dt
-            age[i] = a
-            dies = killed or a >= life[i]
-            keep[i] = not dies
-            dead += dies
+                    hits[i] = last_hit
+                a = age[i] + dt
+                age[i] = a
+                dies = killed or a >= life[i]
+                keep[i] = not dies
+                dead += dies
         return dead
 
     return kernel
 
 
 @parallel_kernel
-def acceleration_kernel(n, vel, inv_mass, has_inv_mass, force, has_force, params, quadratic,
-                        out):
+def acceleration_kernel(n, vel, inv_mass, has_inv_mass, force, has_force, params, quadratic, out):
     """Total acceleration [m/s^2] into ``out`` (3, n): field forces plus ``force``·w."""
-    for i in prange(n):
-        w = inv_mass[i] if has_inv_mass else params[ONE]
-        ax, ay, az = field_acceleration(vel[0, i], vel[1, i], vel[2, i], w, params, quadratic)
-        if has_force:
-            ax += w * force[0, i]
-            ay += w * force[1, i]
-            az += w * force[2, i]
-        out[0, i] = ax
-        out[1, i] = ay
-        out[2, i] = az
+    for block in prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            w = inv_mass[i] if has_inv_mass else params[ONE]
+            ax, ay, az = field_acceleration(vel[0, i], vel[1, i], vel[2, i], w, params, quadratic)
+            if has_force:
+                ax += w * force[0, i]
+                ay += w * force[1, i]
+                az += w * force[2, i]
+            out[0, i] = ax
+            out[1, i] = ay
+            out[2, i] = az
 
 
 def empty_like_rank(dtype, rank: int) -> np.ndarray:

@@ -5,6 +5,13 @@ from .events import ParticleEvent
 from .extinction import AlphaBelow, DistanceFrom, Extinction, IntensityBelow
 
 __all__ = [
-    "AlphaBelow", "ColorOverLife", "Curve", "DistanceFrom", "Extinction", "IntensityBelow",
-    "ParticleEvent", "SizeOverLife", "SpeedOverLife",
+    "AlphaBelow",
+    "ColorOverLife",
+    "Curve",
+    "DistanceFrom",
+    "Extinction",
+    "IntensityBelow",
+    "ParticleEvent",
+    "SizeOverLife",
+    "SpeedOverLife",
 ]

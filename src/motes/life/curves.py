@@ -6,7 +6,7 @@ import numpy as np
 from numba import prange
 
 from .. import _validate as check
-from .._jit import device, parallel_kernel
+from .._jit import block_bounds, block_count, device, parallel_kernel
 from ..color import parse_color
 
 
@@ -29,8 +29,11 @@ class Curve:
             raise ValueError(f"key times must increase, got {self.times.tolist()}")
         rows = []
         for _, value in keys:
-            v = parse_color(value) if components == 4 else np.atleast_1d(
-                np.asarray(value, dtype=np.float64))
+            v = (
+                parse_color(value)
+                if components == 4
+                else np.atleast_1d(np.asarray(value, dtype=np.float64))
+            )
             if v.shape != (components,) or not np.all(np.isfinite(v)):
                 raise ValueError(f"key value {value!r} must be {components} finite numbers")
             rows.append(v)
@@ -39,8 +42,10 @@ class Curve:
     def __call__(self, t) -> np.ndarray:
         """Values at normalised ages ``t`` (n,) -> (n, components)."""
         t = np.asarray(t, dtype=np.float64)
-        return np.stack([np.interp(t, self.times, self.values[:, c])
-                         for c in range(self.values.shape[1])], axis=-1)
+        return np.stack(
+            [np.interp(t, self.times, self.values[:, c]) for c in range(self.values.shape[1])],
+            axis=-1,
+        )
 
 
 @device
@@ -57,20 +62,22 @@ def _lerp_index(t, times):
 def _apply_curve(n, age, lifetime, times, values, base, multiply, out):
     """``out[c, i] = curve(age/lifetime)[c] (· base[c, i] if multiply)`` for vector attributes."""
     last = times.shape[0] - 1
-    for i in prange(n):
-        t = age[i] / lifetime[i] if lifetime[i] > 0 else age[i] * 0
-        k = _lerp_index(t, times)
-        if k == last or t <= times[0]:
-            k2 = k
-            f = t * 0
-        else:
-            k2 = k + 1
-            span = times[k2] - times[k]
-            f = (t - times[k]) / span if span > 0 else t * 0
-            f = min(f, f * 0 + 1)
-        for c in range(out.shape[0]):
-            v = values[k, c] + f * (values[k2, c] - values[k, c])
-            out[c, i] = v * base[c, i] if multiply else v
+    for block in prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            t = age[i] / lifetime[i] if lifetime[i] > 0 else age[i] * 0
+            k = _lerp_index(t, times)
+            if k == last or t <= times[0]:
+                k2 = k
+                f = t * 0
+            else:
+                k2 = k + 1
+                span = times[k2] - times[k]
+                f = (t - times[k]) / span if span > 0 else t * 0
+                f = min(f, f * 0 + 1)
+            for c in range(out.shape[0]):
+                v = values[k, c] + f * (values[k2, c] - values[k, c])
+                out[c, i] = v * base[c, i] if multiply else v
 
 
 class _OverLife:
@@ -98,8 +105,16 @@ class _OverLife:
         out2d = out if out.ndim == 2 else out.reshape(1, -1)
         base = store.raw(f"birth_{self.attribute}") if self.multiply else out2d
         base2d = base if base.ndim == 2 else base.reshape(1, -1)
-        _apply_curve(n, store.raw("age"), store.raw("lifetime"), self.curve.times.astype(dtype),
-                     self.curve.values.astype(dtype), base2d, self.multiply, out2d)
+        _apply_curve(
+            n,
+            store.raw("age"),
+            store.raw("lifetime"),
+            self.curve.times.astype(dtype),
+            self.curve.values.astype(dtype),
+            base2d,
+            self.multiply,
+            out2d,
+        )
 
 
 class ColorOverLife(_OverLife):
@@ -131,12 +146,14 @@ class SizeOverLife(_OverLife):
 
 @parallel_kernel
 def _set_speed(n, vel, speed):
-    for i in prange(n):
-        s = np.sqrt(vel[0, i] ** 2 + vel[1, i] ** 2 + vel[2, i] ** 2)
-        f = speed[i] / s if s > 0 else s * 0
-        vel[0, i] *= f
-        vel[1, i] *= f
-        vel[2, i] *= f
+    for block in prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            s = np.sqrt(vel[0, i] ** 2 + vel[1, i] ** 2 + vel[2, i] ** 2)
+            f = speed[i] / s if s > 0 else s * 0
+            vel[0, i] *= f
+            vel[1, i] *= f
+            vel[2, i] *= f
 
 
 class SpeedOverLife(_OverLife):
@@ -157,7 +174,14 @@ class SpeedOverLife(_OverLife):
             return
         speed = np.empty((1, n), dtype=store.dtype)
         base = store.raw("birth_speed")[:n].reshape(1, -1)
-        _apply_curve(n, store.raw("age"), store.raw("lifetime"),
-                     self.curve.times.astype(store.dtype), self.curve.values.astype(store.dtype),
-                     base, True, speed)
+        _apply_curve(
+            n,
+            store.raw("age"),
+            store.raw("lifetime"),
+            self.curve.times.astype(store.dtype),
+            self.curve.values.astype(store.dtype),
+            base,
+            True,
+            speed,
+        )
         _set_speed(n, store.raw("velocity"), speed[0])

@@ -43,8 +43,17 @@ class ParticleEvent:
 
 def gather(kind: str, time: float, store, index: np.ndarray, collider=None) -> ParticleEvent:
     """Copy the state of the particles at ``index`` into an event."""
-    extra = {name: np.array(store[name][index]) for name in store.names
-             if name not in ("position", "velocity", "id")}
-    return ParticleEvent(kind, time, np.array(store["id"][index]),
-                         np.array(store["position"][index]), np.array(store["velocity"][index]),
-                         extra, collider)
+    extra = {
+        name: np.array(store[name][index])
+        for name in store.names
+        if name not in ("position", "velocity", "id")
+    }
+    return ParticleEvent(
+        kind,
+        time,
+        np.array(store["id"][index]),
+        np.array(store["position"][index]),
+        np.array(store["velocity"][index]),
+        extra,
+        collider,
+    )

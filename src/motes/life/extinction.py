@@ -11,29 +11,35 @@ import numpy as np
 from numba import prange
 
 from .. import _validate as check
-from .._jit import parallel_kernel
+from .._jit import block_bounds, block_count, parallel_kernel
 
 
 @parallel_kernel
 def _mark_dim(n, color, threshold, use_alpha_only, keep):
-    for i in prange(n):
-        if use_alpha_only:
-            value = color[3, i]
-        else:
-            # Rec. 709 luminance of the colour, weighted by its opacity.
-            value = (0.2126 * color[0, i] + 0.7152 * color[1, i] + 0.0722 * color[2, i]) * color[3, i]
-        if value < threshold:
-            keep[i] = False
+    for block in prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            if use_alpha_only:
+                value = color[3, i]
+            else:
+                # Rec. 709 luminance of the colour, weighted by its opacity.
+                value = (
+                    0.2126 * color[0, i] + 0.7152 * color[1, i] + 0.0722 * color[2, i]
+                ) * color[3, i]
+            if value < threshold:
+                keep[i] = False
 
 
 @parallel_kernel
 def _mark_far(n, pos, cx, cy, cz, radius2, keep):
-    for i in prange(n):
-        dx = pos[0, i] - cx
-        dy = pos[1, i] - cy
-        dz = pos[2, i] - cz
-        if dx * dx + dy * dy + dz * dz > radius2:
-            keep[i] = False
+    for block in prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            dx = pos[0, i] - cx
+            dy = pos[1, i] - cy
+            dz = pos[2, i] - cz
+            if dx * dx + dy * dy + dz * dz > radius2:
+                keep[i] = False
 
 
 class Extinction:
@@ -78,5 +84,12 @@ class DistanceFrom(Extinction):
 
     def mark(self, store) -> None:
         c = self.center
-        _mark_far(store.count, store.raw("position"), c[0], c[1], c[2],
-                  np.float64(self.distance) ** 2, store.keep)
+        _mark_far(
+            store.count,
+            store.raw("position"),
+            c[0],
+            c[1],
+            c[2],
+            np.float64(self.distance) ** 2,
+            store.keep,
+        )
