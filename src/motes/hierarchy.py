@@ -79,7 +79,7 @@ class SpawnOnEvent:
         if total == 0:
             return
         origins = np.repeat(event.position, counts, axis=0)
-        base = np.repeat(event.velocity, counts, axis=0)
+        base = np.repeat(event.velocity, counts, axis=0) if self.emitter.inherit_velocity else None
         inherited = {
             name: np.repeat(event.attributes[name], counts, axis=0) for name in self.inherit
         }

@@ -121,6 +121,7 @@ class ParticleStore:
         self._next_id = 0
         self._specs: dict[str, Attribute] = {}
         self._arrays: dict[str, np.ndarray] = {}
+        self._defaults: dict[str, np.ndarray] = {}
         self._keep = np.ones(self.capacity, dtype=np.bool_)
         self.require(*CORE, *attributes)
 
@@ -142,7 +143,15 @@ class ParticleStore:
             array = np.empty(shape, dtype=dtype)
             self._specs[spec.name] = spec
             self._arrays[spec.name] = array
+            self._defaults[spec.name] = np.asarray(spec.default, dtype=dtype).reshape(
+                (-1, 1) if spec.components > 1 else ()
+            )
             self._fill_default(spec.name, 0, self.count)
+        # Compaction moves every attribute in one kernel call per dtype: 2D row views.
+        groups: dict[np.dtype, list[np.ndarray]] = {}
+        for array in self._arrays.values():
+            groups.setdefault(array.dtype, []).append(array.reshape(-1, self.capacity))
+        self._groups = [tuple(views) for views in groups.values()]
 
     @staticmethod
     def _builtin(name: str) -> Attribute:
@@ -226,14 +235,8 @@ class ParticleStore:
         return slice(start, self.count)
 
     def _fill_default(self, name: str, start: int, stop: int) -> None:
-        if stop <= start:
-            return
-        default = self._specs[name].default
-        array = self._arrays[name]
-        if array.ndim == 1:
-            array[start:stop] = default
-        else:
-            array[:, start:stop] = np.asarray(default, dtype=array.dtype).reshape(-1, 1)
+        if stop > start:
+            self._arrays[name][..., start:stop] = self._defaults[name]
 
     @property
     def keep(self) -> np.ndarray:
@@ -262,11 +265,8 @@ class ParticleStore:
             return None
         new_index = np.empty(n, dtype=np.int64)
         survivors = _stable_index(mask, n, new_index)
-        for array in self._arrays.values():
-            if array.ndim == 1:
-                _compact_1d(array, mask, n)
-            else:
-                _compact_2d(array, mask, n)
+        for group in self._groups:
+            _compact_rows(group, mask, n)
         self.count = survivors
         self._keep[:n] = True
         return new_index
@@ -297,20 +297,12 @@ def _stable_index(keep, n, new_index):
 
 
 @serial_kernel
-def _compact_1d(array, keep, n):
+def _compact_rows(arrays, keep, n):
     # In place is safe: the write index j never passes the read index i.
-    j = 0
-    for i in range(n):
-        if keep[i]:
-            array[j] = array[i]
-            j += 1
-
-
-@serial_kernel
-def _compact_2d(array, keep, n):
-    for c in range(array.shape[0]):
-        j = 0
-        for i in range(n):
-            if keep[i]:
-                array[c, j] = array[c, i]
-                j += 1
+    for array in arrays:
+        for c in range(array.shape[0]):
+            j = 0
+            for i in range(n):
+                if keep[i]:
+                    array[c, j] = array[c, i]
+                    j += 1

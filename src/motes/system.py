@@ -20,6 +20,7 @@ from collections.abc import Callable
 import numpy as np
 
 from . import _validate as check
+from ._jit import threads_for
 from .collide.colliders import Collider, pack
 from .emit.emitter import Emitter
 from .forces.base import FieldForce, FieldTerms, Force
@@ -132,6 +133,12 @@ class ParticleSystem:
     def step(self, dt: float) -> None:
         """Advance the system by ``dt`` seconds (one frame)."""
         dt = check.positive("dt", dt)
+        with threads_for(self.store.count):
+            self._step(dt)
+        for child in self.children:
+            child.step(dt)
+
+    def _step(self, dt: float) -> None:
         self.last_dt = dt
         store = self.store
         self._emit(dt)
@@ -157,8 +164,6 @@ class ParticleSystem:
         if self._listeners["step"] and store.count:
             self._emit_event("step", np.arange(store.count))
         self.frame += 1
-        for child in self.children:
-            child.step(dt)
 
     def run(self, steps: int, dt: float) -> None:
         """Take ``steps`` steps of ``dt`` seconds."""

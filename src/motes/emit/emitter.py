@@ -12,6 +12,9 @@ from .distributions import Constant, Distribution, as_distribution
 from .rates import PerSecond, Rate
 from .shapes import Point, Shape
 
+#: Newborn records drawn per batch (see :meth:`Emitter._take`).
+RESERVOIR = 1024
+
 
 class Path:
     """Piecewise-linear emitter trajectory through ``points`` (k, 3) [m] at ``times`` (k,) [s].
@@ -122,6 +125,8 @@ class Emitter:
                 raise ValueError(f"mass must be > 0 [kg], got a minimum of {low}")
         for name, dist in (attributes or {}).items():
             self.initial[name] = as_distribution(name, dist)
+        self._pool: dict[str, np.ndarray] | None = None
+        self._head = 0
 
     @property
     def writes(self) -> tuple[str, ...]:
@@ -145,57 +150,89 @@ class Emitter:
     def emit(self, system, frame: int, time: float, dt: float) -> slice:
         """Create this step's particles in ``system``; returns the slice of new ones."""
         count = self.rate.count(system.rng, frame, time, dt, self)
-        origin = self.position_at(time)
-        base = np.broadcast_to(self.velocity_at(time, dt), (count, 3))
-        return self.emit_at(system, np.broadcast_to(origin, (count, 3)), base)
+        if count == 0:
+            return slice(system.store.count, system.store.count)
+        origin = self.position_at(time)[None, :]
+        base = self.velocity_at(time, dt)[None, :] if self._path is not None else None
+        return self.emit_at(system, origin, base, count=count)
 
     def emit_at(
         self,
         system,
         origins: np.ndarray,
-        base_velocity: np.ndarray,
+        base_velocity: np.ndarray | None,
         inherited: Mapping[str, np.ndarray] | None = None,
+        *,
+        count: int | None = None,
     ) -> slice:
-        """Create one particle per row of ``origins`` (k, 3), offset by a shape sample.
+        """Create particles at ``origins`` (k, 3) [m], each offset by a shape sample.
 
-        ``base_velocity`` (k, 3) [m/s] is added times ``inherit_velocity``; ``inherited``
-        maps attribute names to (k, c) values that replace the emitter's own (a parent's
-        colour, say).
+        ``base_velocity`` (k, 3) [m/s] (or None for zero) is added times
+        ``inherit_velocity``; ``inherited`` maps attribute names to (k, c) values that
+        replace the emitter's own (a parent's colour, say). ``count`` defaults to k; with
+        k = 1 the single origin serves every new particle.
         """
-        store, rng = system.store, system.rng
-        count = origins.shape[0]
+        store = system.store
+        count = origins.shape[0] if count is None else count
         new = store.spawn(count)
         made = new.stop - new.start
         if made == 0:
             return new
-        origins = origins[:made]
-        local, normals = self.shape.sample(rng, made)
-        directions = self.direction.sample(rng, local, normals)
-        speed = self.speed.sample(rng, made, 1)
-        velocity = directions * speed + self.inherit_velocity * base_velocity[:made]
-        lifetime = self.lifetime.sample(rng, made, 1)[:, 0]
-        if np.any(~(lifetime > 0)):
-            raise ValueError(f"lifetime must be > 0 [s], sampled {lifetime.min()}")
-        store["position"][new] = origins + local
-        store["velocity"][new] = velocity
-        store["lifetime"][new] = lifetime
-        for name, dist in self.initial.items():
-            spec_components = store.raw(name).shape[0] if store.raw(name).ndim == 2 else 1
-            values = dist.sample(rng, made, spec_components)
-            if inherited is not None and name in inherited:
-                values = np.asarray(inherited[name])[:made]
-            store[name][new] = values if spec_components > 1 else values[:, 0]
+        rows = self._take(store, system.rng, made)
+        position = rows["offset"] + origins[:made]
+        velocity = rows["velocity"]
+        if base_velocity is not None and self.inherit_velocity:
+            velocity = velocity + self.inherit_velocity * base_velocity[:made]
+        raw = store.raw
+        raw("position")[:, new] = position.T
+        raw("velocity")[:, new] = velocity.T
+        raw("lifetime")[new] = rows["lifetime"]
+        for name in self.initial:
+            if inherited is None or name not in inherited:
+                raw(name)[..., new] = rows[name].T
         if inherited is not None:
             for name, values in inherited.items():
-                if name not in self.initial and store.has(name):
-                    store[name][new] = np.asarray(values)[:made]
+                if store.has(name):
+                    raw(name)[..., new] = np.asarray(values)[:made].T
         if "mass" in self.initial:
-            mass = store["mass"][new]
+            mass = raw("mass")[new]
             if np.any(~(mass > 0)):
-                raise ValueError(f"mass must be > 0 [kg], sampled {mass.min()}")
-            store["inv_mass"][new] = 1.0 / mass
+                raise ValueError(f"mass must be > 0 [kg], got {mass.min()}")
+            raw("inv_mass")[new] = 1.0 / mass
         _record_birth_values(store, new)
         return new
+
+    def _take(self, store, rng, count: int) -> dict[str, np.ndarray]:
+        """``count`` newborn records from the reservoir, refilled from ``rng`` as needed.
+
+        Drawing a few particles at a time costs dozens of tiny NumPy calls per step, so
+        records are drawn in batches of at least :data:`RESERVOIR`; the sequence of records
+        is still a deterministic function of the seed.
+        """
+        pool, head = self._pool, self._head
+        available = 0 if pool is None else len(pool["lifetime"]) - head
+        if available < count:
+            fresh = self._draw(store, rng, max(count - available, RESERVOIR))
+            if available:
+                fresh = {k: np.concatenate([pool[k][head:], v]) for k, v in fresh.items()}
+            pool, head = fresh, 0
+        self._pool, self._head = pool, head + count
+        return {k: v[head : head + count] for k, v in pool.items()}
+
+    def _draw(self, store, rng, count: int) -> dict[str, np.ndarray]:
+        """Sample ``count`` records: shape offset, velocity, lifetime and initial attributes."""
+        local, normals = self.shape.sample(rng, count)
+        directions = self.direction.sample(rng, local, normals)
+        speed = self.speed.sample(rng, count, 1)
+        lifetime = self.lifetime.sample(rng, count, 1)[:, 0]
+        if np.any(~(lifetime > 0)):
+            raise ValueError(f"lifetime must be > 0 [s], sampled {lifetime.min()}")
+        rows = {"offset": local, "velocity": directions * speed, "lifetime": lifetime}
+        for name, dist in self.initial.items():
+            array = store.raw(name)
+            values = dist.sample(rng, count, array.shape[0] if array.ndim == 2 else 1)
+            rows[name] = values if array.ndim == 2 else values[:, 0]
+        return rows
 
 
 def _record_birth_values(store, new: slice) -> None:
