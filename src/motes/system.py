@@ -25,7 +25,7 @@ from .collide.colliders import Collider, pack
 from .emit.emitter import Emitter
 from .forces.base import FieldForce, FieldTerms, Force
 from .integrate import Integrator
-from .integrate.kernels import ONE, PARAM_COUNT, Scheme, acceleration_kernel, step_kernel
+from .integrate.kernels import Scheme, acceleration_kernel, step_kernel
 from .integrate.multistage import rk4, velocity_verlet
 from .life.curves import _OverLife
 from .life.events import KINDS, gather
@@ -188,12 +188,9 @@ class ParticleSystem:
         return terms
 
     def _params(self, terms: FieldTerms, dt: float) -> np.ndarray:
-        params = np.zeros(PARAM_COUNT, dtype=self.store.dtype)
-        params[:11] = terms.packed(np.float64)
-        params[11] = dt
-        params[12] = self.verlet_damping
-        params[ONE] = 1.0
-        return params
+        values = terms.packed()
+        values += [dt, self.verlet_damping, 1.0]
+        return np.array(values, dtype=self.store.dtype)
 
     def _buffer(self, n: int) -> np.ndarray:
         if self._force_buffer is None:

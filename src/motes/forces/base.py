@@ -16,9 +16,16 @@ Forces that know their derivatives also return them as block-sparse
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
+
+Vec3 = tuple[float, float, float]
+_ZERO3: Vec3 = (0.0, 0.0, 0.0)
+
+
+def _add3(a: Vec3, b: Vec3) -> Vec3:
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
 @dataclass
@@ -26,26 +33,25 @@ class FieldTerms:
     """Coefficients of the velocity-only forces acting on every particle.
 
     The acceleration they produce on a particle with inverse mass ``w`` and velocity ``v``
-    is ``gravity + w * (-linear_drag * v + linear_drag_wind - quadratic_drag * |v - u| (v - u))``
-    with ``u = quadratic_wind``. ``linear_drag_wind`` is ``sum_i k_i w_i`` so any number of
-    linear drags toward different winds combine exactly.
+    is ``gravity + w (linear_drag_wind - linear_drag v - quadratic_drag |v - u| (v - u))``
+    with ``u = quadratic_wind``. ``linear_drag_wind`` is ``sum_i k_i w_i``, so any number
+    of linear drags toward different winds combine exactly. Plain tuples, not arrays:
+    these are rebuilt every step, where small-array allocations would dominate.
     """
 
-    gravity: np.ndarray = field(default_factory=lambda: np.zeros(3))  # [m/s^2]
+    gravity: Vec3 = _ZERO3  # [m/s^2]
     linear_drag: float = 0.0  # [kg/s]
-    linear_drag_wind: np.ndarray = field(default_factory=lambda: np.zeros(3))  # [N]
+    linear_drag_wind: Vec3 = _ZERO3  # [N s/m · m/s]
     quadratic_drag: float = 0.0  # [kg/m]
-    quadratic_wind: np.ndarray | None = None  # [m/s]
+    quadratic_wind: Vec3 | None = None  # [m/s]
 
     def add(self, other: FieldTerms) -> None:
         """Accumulate ``other`` into these terms."""
-        self.gravity = self.gravity + other.gravity
+        self.gravity = _add3(self.gravity, other.gravity)
         self.linear_drag += other.linear_drag
-        self.linear_drag_wind = self.linear_drag_wind + other.linear_drag_wind
+        self.linear_drag_wind = _add3(self.linear_drag_wind, other.linear_drag_wind)
         if other.quadratic_drag:
-            if self.quadratic_drag and not np.array_equal(
-                self.quadratic_wind, other.quadratic_wind
-            ):
+            if self.quadratic_drag and self.quadratic_wind != other.quadratic_wind:
                 raise ValueError(
                     "quadratic drags toward different wind velocities cannot be combined; "
                     "use one QuadraticDrag per system"
@@ -53,13 +59,10 @@ class FieldTerms:
             self.quadratic_drag += other.quadratic_drag
             self.quadratic_wind = other.quadratic_wind
 
-    def packed(self, dtype) -> np.ndarray:
-        """The 11 coefficients as the kernel reads them (see ``integrate.kernels``)."""
-        wind = np.zeros(3) if self.quadratic_wind is None else self.quadratic_wind
-        return np.array(
-            [*self.gravity, self.linear_drag, *self.linear_drag_wind, self.quadratic_drag, *wind],
-            dtype=dtype,
-        )
+    def packed(self) -> list[float]:
+        """The 11 coefficients in the order the kernel reads them (``integrate.kernels``)."""
+        wind = _ZERO3 if self.quadratic_wind is None else self.quadratic_wind
+        return [*self.gravity, self.linear_drag, *self.linear_drag_wind, self.quadratic_drag, *wind]
 
 
 @dataclass

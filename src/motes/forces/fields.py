@@ -28,7 +28,7 @@ class Gravity(FieldForce):
         self.acceleration = check.vector("acceleration", acceleration)
 
     def terms(self) -> FieldTerms:
-        return FieldTerms(gravity=self.acceleration.copy())
+        return FieldTerms(gravity=tuple(self.acceleration.tolist()))
 
     def __repr__(self) -> str:
         return f"Gravity({self.acceleration.tolist()})"
@@ -51,7 +51,8 @@ class Drag(FieldForce):
 
     def terms(self) -> FieldTerms:
         return FieldTerms(
-            linear_drag=self.coefficient, linear_drag_wind=self.coefficient * self.wind
+            linear_drag=self.coefficient,
+            linear_drag_wind=tuple((self.coefficient * self.wind).tolist()),
         )
 
     def jacobian(self, velocity, inv_mass=None) -> ForceJacobian:
@@ -84,7 +85,7 @@ class QuadraticDrag(FieldForce):
         self.wind = check.vector("wind", wind)
 
     def terms(self) -> FieldTerms:
-        return FieldTerms(quadratic_drag=self.coefficient, quadratic_wind=self.wind.copy())
+        return FieldTerms(quadratic_drag=self.coefficient, quadratic_wind=tuple(self.wind.tolist()))
 
     def jacobian(self, velocity, inv_mass=None) -> ForceJacobian:
         # d/du (-c |u| u) = -c (|u| I + u uᵀ / |u|), u = v - wind

@@ -40,11 +40,16 @@ class Integrator(StrEnum):
     @property
     def fused_scheme(self) -> Scheme:
         """The scheme the fused kernel runs (NONE for multi-stage integrators)."""
-        return {
-            Integrator.EXPLICIT_EULER: Scheme.EXPLICIT_EULER,
-            Integrator.SEMI_IMPLICIT_EULER: Scheme.SEMI_IMPLICIT_EULER,
-            Integrator.VERLET: Scheme.VERLET,
-        }.get(self, Scheme.NONE)
+        return _FUSED[self]
+
+
+_FUSED = {
+    Integrator.EXPLICIT_EULER: Scheme.EXPLICIT_EULER,
+    Integrator.SEMI_IMPLICIT_EULER: Scheme.SEMI_IMPLICIT_EULER,
+    Integrator.VERLET: Scheme.VERLET,
+    Integrator.VELOCITY_VERLET: Scheme.NONE,
+    Integrator.RK4: Scheme.NONE,
+}
 
 
 __all__ = ["Integrator", "Scheme"]

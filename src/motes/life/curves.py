@@ -6,7 +6,7 @@ import numpy as np
 from numba import prange
 
 from .. import _validate as check
-from .._jit import block_bounds, block_count, device, parallel_kernel
+from .._jit import block_bounds, block_count, parallel_kernel
 from ..color import parse_color
 
 
@@ -48,36 +48,36 @@ class Curve:
         )
 
 
-@device
-def _lerp_index(t, times):
-    # Last key with time <= t (keys are few; a linear scan beats a bisection here).
-    k = 0
-    for j in range(times.shape[0]):
-        if times[j] <= t:
-            k = j
-    return k
-
-
 @parallel_kernel
-def _apply_curve(n, age, lifetime, times, values, base, multiply, out):
-    """``out[c, i] = curve(age/lifetime)[c] (· base[c, i] if multiply)`` for vector attributes."""
-    last = times.shape[0] - 1
+def _apply_curve(n, age, lifetime, times, values, slopes, base, multiply, out):
+    """``out[c, i] = curve(age_i / lifetime_i)[c]``, times ``base[c, i]`` if ``multiply``.
+
+    ``slopes[k, c]`` is the slope of segment k (0 for the last key), so evaluating the
+    piecewise-linear curve is a branch-free key count and one multiply-add.
+    """
+    keys = times.shape[0]
+    first = times[0]
+    final = times[keys - 1]
     for block in prange(block_count(n)):
         start, stop = block_bounds(block, n)
         for i in range(start, stop):
-            t = age[i] / lifetime[i] if lifetime[i] > 0 else age[i] * 0
-            k = _lerp_index(t, times)
-            if k == last or t <= times[0]:
-                k2 = k
-                f = t * 0
-            else:
-                k2 = k + 1
-                span = times[k2] - times[k]
-                f = (t - times[k]) / span if span > 0 else t * 0
-                f = min(f, f * 0 + 1)
+            t = min(max(age[i] / lifetime[i], first), final)
+            k = 0
+            for j in range(1, keys):
+                k += t >= times[j]
+            dt = t - times[k]
             for c in range(out.shape[0]):
-                v = values[k, c] + f * (values[k2, c] - values[k, c])
+                v = values[k, c] + dt * slopes[k, c]
                 out[c, i] = v * base[c, i] if multiply else v
+
+
+def segment_slopes(times: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Slope of each segment of a piecewise-linear curve, (k, c); 0 after the last key."""
+    slopes = np.zeros_like(values)
+    span = np.diff(times)[:, None]
+    rise = np.diff(values, axis=0)
+    np.divide(rise, span, out=slopes[:-1], where=span > 0)
+    return slopes
 
 
 class _OverLife:
@@ -95,12 +95,16 @@ class _OverLife:
 
     def bind(self, store) -> None:
         store.require(*self.reads)
+        # Keys in the store's precision, cast once: per step the cast would cost more
+        # than the kernel in a small system.
+        self._times = self.curve.times.astype(store.dtype)
+        self._values = self.curve.values.astype(store.dtype)
+        self._slopes = segment_slopes(self.curve.times, self.curve.values).astype(store.dtype)
 
     def apply(self, store) -> None:
         n = store.count
         if n == 0:
             return
-        dtype = store.dtype
         out = store.raw(self.attribute)
         out2d = out if out.ndim == 2 else out.reshape(1, -1)
         base = store.raw(f"birth_{self.attribute}") if self.multiply else out2d
@@ -109,8 +113,9 @@ class _OverLife:
             n,
             store.raw("age"),
             store.raw("lifetime"),
-            self.curve.times.astype(dtype),
-            self.curve.values.astype(dtype),
+            self._times,
+            self._values,
+            self._slopes,
             base2d,
             self.multiply,
             out2d,
@@ -178,8 +183,9 @@ class SpeedOverLife(_OverLife):
             n,
             store.raw("age"),
             store.raw("lifetime"),
-            self.curve.times.astype(store.dtype),
-            self.curve.values.astype(store.dtype),
+            self._times,
+            self._values,
+            self._slopes,
             base,
             True,
             speed,
