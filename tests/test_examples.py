@@ -1,0 +1,28 @@
+"""The example scripts run headless and keep their invariants."""
+
+import runpy
+import sys
+from pathlib import Path
+
+import pytest
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def test_minimal_reeves_fire_runs_and_rises(capsys):
+    runpy.run_path(str(EXAMPLES / "minimal" / "reeves_fire.py"), run_name="__main__")
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert len(lines) == 5
+    counts = [int(line.split(":")[1].split()[0]) for line in lines]
+    assert min(counts) > 1000
+
+
+def test_integrators_example_orders_energies():
+    sys.path.insert(0, str(EXAMPLES))
+    try:
+        from integrators import energy_after
+    finally:
+        sys.path.remove(str(EXAMPLES))
+    assert energy_after("explicit_euler", 0.05) > 0.5 * (1 + 0.05**2) ** 150
+    assert energy_after("rk4", 0.05) == pytest.approx(0.5, rel=1e-6)
+    assert energy_after("semi_implicit_euler", 0.05) == pytest.approx(0.5, rel=0.05)
