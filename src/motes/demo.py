@@ -52,6 +52,7 @@ def run(seconds: float = 10.0, *, seed: int = 1, rate: float = 2000.0, out=print
         f"motes fire demo: {seconds:g} s at {FPS} steps/s, mean {rate:g} births per frame, "
         f"seed {seed}"
     )
+    out("(the first run on a machine compiles the kernels: allow a minute; later runs reuse them)")
     out(f"{'time [s]':>8} {'particles':>10} {'mean speed':>11}  bounding box [m]")
     started = time.perf_counter()
     summary = fire.summary()

@@ -1,0 +1,142 @@
+"""Helpers shared by the benchmarks: timing, the machine, copy bandwidth, tables."""
+
+from __future__ import annotations
+
+import math
+import os
+import platform
+import statistics
+import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Timing:
+    """Wall times [s] of repeated calls: the best and the median."""
+
+    best: float
+    median: float
+
+
+def time_calls(step: Callable[[], object], *, repeat: int, warmup: int = 1) -> Timing:
+    """Time ``repeat`` calls of ``step`` after ``warmup`` untimed calls.
+
+    The warm-up calls absorb first-call costs (Numba compilation or cache loading, page
+    faults on fresh buffers). The best time is the headline figure: on a small shared
+    machine another process can take a core for a whole scheduler time slice, and a
+    parallel kernel then waits for its slowest thread, so slow outliers measure the
+    neighbours, not the code. The median is reported beside it.
+    """
+    for _ in range(warmup):
+        step()
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        step()
+        times.append(time.perf_counter() - start)
+    return Timing(min(times), statistics.median(times))
+
+
+def machine() -> dict:
+    """Cores, Numba threads and library versions of this machine."""
+    try:
+        usable = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        usable = os.cpu_count() or 1
+    return {
+        "cpu_count": os.cpu_count() or 1,
+        "usable_cores": usable,
+        "numba_threads": numba.get_num_threads(),
+        "background_busy_cores": background_busy_cores(),
+        "numba_threading_layer": _threading_layer(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "numba": numba.__version__,
+        "processor": platform.processor() or platform.machine(),
+    }
+
+
+class OtherLoad:
+    """Cores used on average by *other* processes since construction (Linux).
+
+    A busy machine delays the threads of parallel kernels (a kernel waits for its
+    slowest thread, and a thread that lost its core waits a whole scheduler time
+    slice), so the figures are reported with this. It is the machine's busy time from
+    ``/proc/stat`` (including time stolen by a hypervisor) minus this process's own CPU
+    time, over the wall time. NaN where ``/proc/stat`` does not exist.
+    """
+
+    def __init__(self):
+        self._start = self._sample()
+
+    @staticmethod
+    def _sample() -> tuple[float, float, float] | None:
+        try:
+            with open("/proc/stat") as stat:
+                ticks = [int(x) for x in stat.readline().split()[1:]]
+        except OSError:
+            return None
+        busy = sum(ticks[:8]) - ticks[3] - ticks[4]  # all but idle and iowait
+        own = os.times()
+        return busy / os.sysconf("SC_CLK_TCK"), own.user + own.system, time.perf_counter()
+
+    def cores(self) -> float:
+        end = self._sample()
+        if end is None or self._start is None:
+            return float("nan")
+        busy, own, wall = (b - a for a, b in zip(self._start, end, strict=True))
+        return max(busy - own, 0.0) / max(wall, 1e-9)
+
+
+def background_busy_cores(seconds: float = 0.5) -> float:
+    """Cores kept busy by other processes while this one sleeps for ``seconds``."""
+    load = OtherLoad()
+    time.sleep(seconds)
+    return load.cores()
+
+
+def _threading_layer() -> str:
+    try:
+        return numba.threading_layer()
+    except ValueError:  # no parallel kernel has run yet
+        return "not yet chosen"
+
+
+def copy_bandwidth(rows: int, columns: int, *, threads: int = 1, repeat: int = 5) -> float:
+    """Memory bandwidth [B/s] of a large ``np.copyto``, counting read + write bytes.
+
+    Copies a ``(rows, columns)`` float32 array, split by rows over ``threads`` threads
+    (NumPy releases the GIL while copying); each copy moves ``2 * nbytes`` (read the
+    source, write the destination). The best of ``repeat`` copies is the attainable
+    streaming rate. One thread may not saturate the memory system where a parallel
+    kernel can: measure with as many threads as the kernels use.
+    """
+    src = np.random.default_rng(0).random((rows, columns), dtype=np.float32)
+    dst = np.empty_like(src)
+    parts = [slice(p[0], p[-1] + 1) for p in np.array_split(np.arange(rows), threads) if p.size]
+    best = math.inf
+    with ThreadPoolExecutor(len(parts)) as pool:
+
+        def copy() -> None:
+            for done in [pool.submit(np.copyto, dst[p], src[p]) for p in parts]:
+                done.result()
+
+        copy()  # fault the destination's pages in before timing
+        for _ in range(repeat):
+            start = time.perf_counter()
+            copy()
+            best = min(best, time.perf_counter() - start)
+    return 2 * src.nbytes / best
+
+
+def table(rows: list[tuple[str, str]], *, title: str) -> str:
+    """A two-column text table with a title line."""
+    width = max(len(name) for name, _ in rows)
+    lines = [title, "-" * len(title)]
+    lines += [f"  {name:<{width}}  {value}" for name, value in rows]
+    return "\n".join(lines)
