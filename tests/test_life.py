@@ -145,3 +145,21 @@ def test_birth_and_step_events():
     system.run(4, 0.01)
     assert born == [3, 3, 3, 3]
     assert stepped == [3, 6, 9, 12]
+
+
+def test_changing_a_collider_between_steps_takes_effect():
+    system = filled(1)
+    system["position"] = [[0, 0, 0]]
+    plane = mo.colliders.Plane((0, 1, 0), -1.0)
+    gravity = mo.Gravity((0, 0, 0))
+    system.add(plane, gravity)
+    system.step(0.01)
+    assert system["position"][0, 1] == pytest.approx(0.0)
+    plane.offset = 0.5  # raise the floor: the particle is pushed up on the next step
+    system.step(0.01)
+    assert system["position"][0, 1] == pytest.approx(0.5)
+    gravity.acceleration = np.array([0.0, 0.0, -10.0])
+    system.step(0.01)
+    assert system["velocity"][0, 2] == pytest.approx(-0.1)
+    with pytest.raises(ValueError, match="read-only"):
+        plane.normal[1] = 2.0

@@ -16,11 +16,13 @@ No physics lives here, only orchestration. One step (Reeves' frame) runs:
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
 from . import _validate as check
 from ._jit import threads_for
+from ._tracked import fingerprint
 from .collide.colliders import Collider, pack
 from .emit.emitter import Emitter
 from .forces.base import FieldForce, FieldTerms, Force
@@ -31,6 +33,18 @@ from .life.curves import _OverLife
 from .life.events import KINDS, gather
 from .life.extinction import Extinction
 from .particles import ParticleStore
+
+
+@dataclass
+class _StepSetup:
+    """What the fused kernel needs besides particle arrays, valid while ``key`` holds."""
+
+    key: tuple
+    kernel: object
+    params: np.ndarray
+    table: np.ndarray
+    quadratic: bool
+    track_hits: bool
 
 
 class ParticleSystem:
@@ -88,6 +102,8 @@ class ParticleSystem:
         self._listeners: dict[str, list[Callable]] = {kind: [] for kind in KINDS}
         self._force_buffer: np.ndarray | None = None
         self._hits: np.ndarray | None = None
+        self._no_hits = np.empty(1, dtype=np.int32)
+        self._setup_cache: _StepSetup | None = None
 
     # -- building -------------------------------------------------------------------
     def add(self, *items) -> ParticleSystem:
@@ -144,15 +160,14 @@ class ParticleSystem:
         self._emit(dt)
         n = store.count
         scheme = self.integrator.fused_scheme
-        terms = self._field_terms()
-        params = self._params(terms, dt)
+        setup = self._setup(scheme, dt)
         if scheme == Scheme.NONE and n:
-            self._advance_multistage(n, dt, params, terms)
+            self._advance_multistage(n, dt, setup)
         elif self.forces and n:
             self._accumulate_forces(
                 n, store.raw("position")[:, :n], store.raw("velocity")[:, :n], self.time
             )
-        dead = self._move(n, scheme, params, terms)
+        dead = self._move(n, setup)
         for policy in self.extinctions:
             policy.mark(store)
         self.time += dt
@@ -181,16 +196,41 @@ class ParticleSystem:
         if self._listeners["birth"]:
             self._emit_event("birth", np.arange(new.start, new.stop))
 
-    def _field_terms(self) -> FieldTerms:
+    def _setup(self, scheme: Scheme, dt: float) -> _StepSetup:
+        """Kernel, packed parameters and collider table for this step (rebuilt on change)."""
+        track_hits = bool(self._listeners["collision"])
+        key = (
+            scheme,
+            dt,
+            self.verlet_damping,
+            track_hits,
+            bool(self.forces),
+            self.store.has("inv_mass"),
+            fingerprint(self.colliders),
+            fingerprint(self.field_forces),
+        )
+        if self._setup_cache is not None and self._setup_cache.key == key:
+            return self._setup_cache
         terms = FieldTerms()
         for force in self.field_forces:
             terms.add(force.terms())
-        return terms
-
-    def _params(self, terms: FieldTerms, dt: float) -> np.ndarray:
         values = terms.packed()
         values += [dt, self.verlet_damping, 1.0]
-        return np.array(values, dtype=self.store.dtype)
+        params = np.array(values, dtype=self.store.dtype)
+        table, structure = pack(self.colliders)
+        quadratic = terms.quadratic_drag > 0
+        kernel = step_kernel(
+            int(scheme),
+            structure,
+            bool(self.forces) and scheme != Scheme.NONE,
+            self.store.has("inv_mass"),
+            quadratic,
+            track_hits,
+        )
+        self._setup_cache = _StepSetup(
+            key, kernel, params, table.astype(self.store.dtype), quadratic, track_hits
+        )
+        return self._setup_cache
 
     def _buffer(self, n: int) -> np.ndarray:
         if self._force_buffer is None:
@@ -209,10 +249,10 @@ class ParticleSystem:
             return self.store.raw("inv_mass"), True
         return np.ones(1, dtype=self.store.dtype), False
 
-    def _advance_multistage(self, n, dt, params, terms) -> None:
+    def _advance_multistage(self, n, dt, setup: _StepSetup) -> None:
         store = self.store
         inv_mass, has_inv_mass = self._inv_mass()
-        quadratic = terms.quadratic_drag > 0
+        params, quadratic = setup.params, setup.quadratic
 
         def acceleration(x, v, t, out):
             force = self._accumulate_forces(n, x, v, t) if self.forces else out
@@ -227,41 +267,30 @@ class ParticleSystem:
         else:
             velocity_verlet(x, v, self.time, dt, acceleration)
 
-    def _move(self, n: int, scheme: Scheme, params, terms) -> int:
+    def _move(self, n: int, setup: _StepSetup) -> int:
         store = self.store
         if n == 0:
             return 0
-        table, structure = pack(self.colliders)
-        track_hits = bool(self._listeners["collision"])
-        if track_hits and (self._hits is None):
+        if setup.track_hits and self._hits is None:
             self._hits = np.full(store.capacity, -1, dtype=np.int32)
-        inv_mass, has_inv_mass = self._inv_mass()
-        kernel = step_kernel(
-            int(scheme),
-            structure,
-            bool(self.forces) and scheme != Scheme.NONE,
-            has_inv_mass,
-            terms.quadratic_drag > 0,
-            track_hits,
+        inv_mass, _ = self._inv_mass()
+        position = store.raw("position")
+        force = self._force_buffer if self._force_buffer is not None else position
+        hits = self._hits if setup.track_hits else self._no_hits
+        dead = setup.kernel(
+            n,
+            position,
+            store.raw("velocity"),
+            store.raw("age"),
+            store.raw("lifetime"),
+            inv_mass,
+            force,
+            setup.params,
+            setup.table,
+            store.keep,
+            hits,
         )
-        placeholder3 = store.raw("position")
-        force = self._force_buffer if self._force_buffer is not None else placeholder3
-        hits = self._hits if track_hits else np.empty(1, dtype=np.int32)
-        return int(
-            kernel(
-                n,
-                store.raw("position"),
-                store.raw("velocity"),
-                store.raw("age"),
-                store.raw("lifetime"),
-                inv_mass,
-                force,
-                params,
-                table.astype(store.dtype),
-                store.keep,
-                hits,
-            )
-        )
+        return int(dead)
 
     def _deliver_collisions(self, n: int) -> None:
         if not self._listeners["collision"] or n == 0:

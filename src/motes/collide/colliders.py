@@ -13,6 +13,7 @@ from enum import IntEnum
 import numpy as np
 
 from .. import _validate as check
+from .._tracked import Tracked
 
 
 class Response(IntEnum):
@@ -47,7 +48,7 @@ class Kind(IntEnum):
 ROW_WIDTH = 17
 
 
-class Collider:
+class Collider(Tracked):
     """Common response parameters.
 
     Parameters

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._tracked import Tracked
+
 Vec3 = tuple[float, float, float]
 _ZERO3: Vec3 = (0.0, 0.0, 0.0)
 
@@ -90,7 +92,7 @@ class ForceJacobian:
         return dx, dv
 
 
-class FieldForce(ABC):
+class FieldForce(Tracked, ABC):
     """A force that depends only on each particle's own velocity (folded into the kernel)."""
 
     #: Attributes this force reads; the system allocates them.
