@@ -18,8 +18,6 @@ so the flags are chosen once:
 
 from __future__ import annotations
 
-from contextlib import contextmanager
-
 import numba
 import numpy as np
 from numba import njit
@@ -68,18 +66,17 @@ def block_bounds(block, n):
 SERIAL_BELOW = 8192
 
 
-@contextmanager
-def threads_for(count: int):
-    """Run the enclosed kernels on one thread when ``count`` < :data:`SERIAL_BELOW`.
+def serial_threads(count: int) -> int:
+    """Switch to one thread when ``count`` < :data:`SERIAL_BELOW`.
 
-    Results do not change (kernels are block-parallel), only the launch cost.
+    Returns the thread count to restore with ``numba.set_num_threads`` afterwards (0 when
+    nothing was changed). Results do not depend on it (kernels are block-parallel), only
+    the launch cost.
     """
     if count >= SERIAL_BELOW:
-        yield
-        return
+        return 0
     previous = numba.get_num_threads()
+    if previous == 1:
+        return 0
     numba.set_num_threads(1)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(previous)
+    return previous

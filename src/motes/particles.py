@@ -216,11 +216,12 @@ class ParticleStore:
         return "\n".join(rows)
 
     # -- life and death ---------------------------------------------------------------
-    def spawn(self, count: int) -> slice:
+    def spawn(self, count: int, *, initialised: frozenset[str] = frozenset()) -> slice:
         """Append up to ``count`` particles with default attributes and fresh ids.
 
         Returns the slice of the new particles (shorter than ``count`` when the store is
-        full: the rest are dropped and added to :attr:`dropped`).
+        full: the rest are dropped and added to :attr:`dropped`). Attributes named in
+        ``initialised`` are left for the caller to write (an emitter sets them anyway).
         """
         count = check.integer("count", count, low=0)
         made = min(count, self.capacity - self.count)
@@ -228,7 +229,8 @@ class ParticleStore:
         start = self.count
         self.count += made
         for name in self._arrays:
-            self._fill_default(name, start, self.count)
+            if name not in initialised:
+                self._fill_default(name, start, self.count)
         ids = self._arrays["id"]
         ids[start : self.count] = np.arange(self._next_id, self._next_id + made, dtype=np.int64)
         self._next_id += made

@@ -127,6 +127,12 @@ class Emitter:
             self.initial[name] = as_distribution(name, dist)
         self._pool: dict[str, np.ndarray] | None = None
         self._head = 0
+        # Attributes emit_at always writes, so spawning need not fill their defaults.
+        self._initialised = (
+            frozenset((*self.writes, "id", "birth_color", "birth_size", "birth_speed"))
+            - ({"birth_color"} if "color" not in self.initial else set())
+            - ({"birth_size"} if "size" not in self.initial else set())
+        )
 
     @property
     def writes(self) -> tuple[str, ...]:
@@ -174,7 +180,7 @@ class Emitter:
         """
         store = system.store
         count = origins.shape[0] if count is None else count
-        new = store.spawn(count)
+        new = store.spawn(count, initialised=self._initialised)
         made = new.stop - new.start
         if made == 0:
             return new

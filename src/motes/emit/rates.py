@@ -79,7 +79,11 @@ class PerFrame(Rate):
         if frame < self.start_frame:
             return 0
         mean, variance = self.expected(frame)
-        return stochastic_round(rng, mean + rng.uniform(-1.0, 1.0) * variance)
+        # One draw of two numbers: U(-1, 1) for the count, U(0, 1) for its rounding.
+        u, r = rng.random(2)
+        x = mean + (2.0 * u - 1.0) * variance
+        base = math.floor(x)
+        return int(base + (r < x - base))
 
 
 class PerSecond(Rate):
