@@ -18,11 +18,14 @@ from .system import ParticleSystem
 FPS = 60
 
 
-def build_fire(*, capacity: int = 200_000, rate: float = 2000.0, seed: int = 1) -> ParticleSystem:
+def build_fire(
+    *, capacity: int = 200_000, rate: float = 2000.0, seed: int = 1, turbulence: bool = True
+) -> ParticleSystem:
     """A fire: a disc of buoyant, turbulent particles fading from white-yellow to smoke.
 
     ``rate`` is the mean number of particles born per frame (Reeves' MeanParts; the
-    variance is a fifth of it).
+    variance is a fifth of it). ``turbulence=False`` leaves out the curl noise (the
+    benchmark's fixed-cost system).
     """
     fire = ParticleSystem(capacity=capacity, seed=seed)
     fire.add(
@@ -36,11 +39,12 @@ def build_fire(*, capacity: int = 200_000, rate: float = 2000.0, seed: int = 1) 
         ),
         Gravity((0.0, 2.0, 0.0)),  # buoyancy: hot gas rises
         Drag(0.8),
-        CurlNoise(strength=1.5, scale=0.4, seed=seed),
         colliders.Plane((0.0, 1.0, 0.0), 0.0, friction=0.3),
         ColorOverLife([(0.0, "#fff3b0"), (0.4, "#ff7a1a"), (1.0, "#30303000")]),
         SizeOverLife([(0.0, 1.0), (1.0, 2.5)]),
     )
+    if turbulence:
+        fire.add(CurlNoise(strength=1.5, scale=0.4, seed=seed))
     return fire
 
 

@@ -243,9 +243,11 @@ class Emitter:
 
 def _record_birth_values(store, new: slice) -> None:
     """Copy initial colour / size / speed into the birth_* attributes over-life curves use."""
+    raw = store.raw
     if store.has("birth_color") and store.has("color"):
-        store["birth_color"][new] = store["color"][new]
+        raw("birth_color")[:, new] = raw("color")[:, new]
     if store.has("birth_size") and store.has("size"):
-        store["birth_size"][new] = store["size"][new]
+        raw("birth_size")[new] = raw("size")[new]
     if store.has("birth_speed"):
-        store["birth_speed"][new] = np.linalg.norm(store["velocity"][new], axis=1)
+        v = raw("velocity")[:, new]
+        raw("birth_speed")[new] = np.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
