@@ -163,3 +163,17 @@ def test_changing_a_collider_between_steps_takes_effect():
     assert system["velocity"][0, 2] == pytest.approx(-0.1)
     with pytest.raises(ValueError, match="read-only"):
         plane.normal[1] = 2.0
+
+
+def test_remove_and_nbytes():
+    system = mo.ParticleSystem(100, seed=1)
+    emitter = mo.Emitter(rate=mo.PerFrame(5))
+    noise = mo.CurlNoise(1.0, 1.0)
+    system.add(emitter, noise, mo.Gravity())
+    system.step(0.01)
+    assert system.nbytes == system.store.nbytes + 3 * 100 * 4  # the force buffer
+    system.remove(emitter)
+    system.step(0.01)
+    assert len(system) == 5
+    with pytest.raises(ValueError, match="not part of this system"):
+        system.remove(emitter)

@@ -134,6 +134,23 @@ class ParticleSystem:
                 raise TypeError(f"cannot add {item!r} to a ParticleSystem")
         return self
 
+    def remove(self, *items) -> ParticleSystem:
+        """Remove previously added emitters, forces, colliders, modifiers or policies."""
+        lists = (
+            self.emitters,
+            self.field_forces,
+            self.forces,
+            self.colliders,
+            self.modifiers,
+            self.extinctions,
+        )
+        for item in items:
+            owner = next((group for group in lists if any(x is item for x in group)), None)
+            if owner is None:
+                raise ValueError(f"{item!r} is not part of this system")
+            owner[:] = [x for x in owner if x is not item]
+        return self
+
     def on(self, kind: str, callback: Callable) -> None:
         """Call ``callback(event)`` for every ``kind`` event: ``"birth"``, ``"death"``,
         ``"collision"`` or ``"step"`` (every live particle, after each step)."""
@@ -334,6 +351,12 @@ class ParticleSystem:
     def __setitem__(self, name: str, value) -> None:
         """Set attribute ``name`` of every live particle (broadcasting ``value``)."""
         self.store[name] = value
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes allocated for this system: the store plus the force and hit buffers."""
+        extra = sum(b.nbytes for b in (self._force_buffer, self._hits) if b is not None)
+        return self.store.nbytes + extra
 
     def summary(self) -> dict:
         """Count, bounding box [m] and mean speed [m/s] of the live particles."""

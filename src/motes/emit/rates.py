@@ -41,7 +41,9 @@ class PerFrame(Rate):
     ----------
     mean, variance : float
         Particles per frame, ``0 <= variance <= mean`` (a larger variance could ask for a
-        negative count).
+        negative count). Following Reeves (``MeanParts``, ``VarParts``), ``variance`` is
+        the half-width of the uniform spread, not a statistical variance: the count's
+        variance is ``variance² / 3`` (plus 1/6 on average from rounding).
     delta_mean, delta_variance : float
         Change of mean and variance per frame.
     start_frame : int

@@ -130,7 +130,10 @@ class ColorOverLife(_OverLife):
     keys : sequence of (t, colour)
         e.g. ``[(0, "#fff3b0"), (0.4, "#ff7a1a"), (1, "#30303000")]``.
     multiply : bool
-        Multiply each particle's birth colour by the curve instead of replacing it.
+        Multiply each particle's birth colour by the curve instead of replacing it
+        (default False: the curve is the colour, so an emitter's ``color`` only matters
+        with ``multiply=True``). :class:`SizeOverLife` multiplies by default, since sizes
+        are usually given per particle and scaled over life.
     """
 
     attribute = "color"
