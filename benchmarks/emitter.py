@@ -164,7 +164,7 @@ def field_terms(system: motes.ParticleSystem) -> FieldTerms:
     for force in system.field_forces:
         terms.add(force.terms())
     if terms.quadratic_drag:
-        raise NotImplementedError("the NumPy baselines implement linear drag only")
+        raise ValueError("the NumPy baselines implement linear drag only")
     return terms
 
 
@@ -185,7 +185,7 @@ class PlaneParams:
             and bounce
             and collider.friction_model == motes.Friction.SCALE
         ):
-            raise NotImplementedError(
+            raise ValueError(
                 f"the NumPy baselines implement bouncing planes with "
                 f"scale friction only, got {collider!r}"
             )
@@ -335,9 +335,9 @@ class NumpyFire:
             emitter.rate = copy.deepcopy(emitter.rate)
         self.noises = [f for f in system.forces if isinstance(f, motes.CurlNoise)]
         if len(self.noises) != len(system.forces):
-            raise NotImplementedError("the NumPy fire implements curl noise forces only")
+            raise ValueError("the NumPy fire implements curl noise forces only")
         if store.has("mass") or store.has("inv_mass"):
-            raise NotImplementedError("the NumPy fire assumes 1 kg particles")
+            raise ValueError("the NumPy fire assumes 1 kg particles")
         terms = field_terms(system)
         acceleration = np.add(terms.gravity, terms.linear_drag_wind)  # the terms are tuples
         self.acceleration = acceleration.astype(np.float32)[:, None]

@@ -28,7 +28,7 @@ import numba
 import numpy as np
 
 from .. import _validate as check
-from .._jit import block_bounds, block_count, device, parallel_kernel, serial_kernel
+from .._jit import BLOCK, block_bounds, block_count, device, parallel_kernel, serial_kernel
 from .base import Force, check_buffers, particle_mass
 
 #: Perlin noise repeats every 256 lattice cells along each axis.
@@ -60,6 +60,26 @@ def permutation_tables(seed: int) -> np.ndarray:
     rng = np.random.default_rng(seed)
     tables = np.stack([rng.permutation(PERIOD) for _ in range(3)])
     return np.concatenate([tables, tables], axis=1).astype(np.int64)
+
+
+def corner_tables(permutations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The permutation tables repacked for the kernels: two int32 arrays of shape (3, 512).
+
+    ``hash_pairs[k, i] = perm[i] | perm[i + 1] << 8``: Perlin's hash always reads
+    ``perm[i]`` and ``perm[i + 1]`` together, so one load serves both.
+    ``ramp_pairs[k, i] = code(perm[i]) | code(perm[i + 1]) << 6`` with the 6-bit code
+    ``code(h) = (g_x + 1) | (g_y + 1) << 2 | (g_z + 1) << 4`` of the gradient
+    ``g = perlin_gradients()[h & 15]``: the last hash level and the gradient lookup in
+    one load, for a corner and its neighbour along z. Entry 511 (``perm[512]``) is never
+    read: hashed indices stay below 511.
+    """
+    perm = np.asarray(permutations, dtype=np.int64)
+    following = np.roll(perm, -1, axis=1)
+    g = perlin_gradients().astype(np.int64) + 1
+    code = g[:, 0] | g[:, 1] << 2 | g[:, 2] << 4
+    hash_pairs = perm | following << 8
+    ramp_pairs = code[perm & 15] | code[following & 15] << 6
+    return hash_pairs.astype(np.int32), ramp_pairs.astype(np.int32)
 
 
 class CurlNoise(Force):
@@ -107,7 +127,7 @@ class CurlNoise(Force):
         self.time_scale = check.real("time_scale", time_scale)
         #: Permutation tables of the three potential components, int64 (3, 512).
         self.permutations = permutation_tables(self.seed)
-        self._gradients = perlin_gradients()
+        self._hash_pairs, self._ramp_pairs = corner_tables(self.permutations)
 
     def __repr__(self) -> str:
         return (
@@ -125,8 +145,8 @@ class CurlNoise(Force):
         _curl_noise_kernel(
             *position,
             particle_mass(store, position.shape[1], position.dtype),
-            self.permutations,
-            self._gradients.astype(position.dtype),
+            self._hash_pairs,
+            self._ramp_pairs,
             real(self.strength),
             real(1.0 / self.scale),
             real(self._shift(time)),
@@ -161,8 +181,8 @@ class CurlNoise(Force):
         gradient = np.empty((3, 3, n), dtype=position.dtype)
         _potential_kernel(
             *position,
-            self.permutations,
-            self._gradients.astype(position.dtype),
+            self._hash_pairs,
+            self._ramp_pairs,
             real(1.0 / self.scale),
             real(self._shift(time)),
             self.octaves,
@@ -172,15 +192,67 @@ class CurlNoise(Force):
         return psi, gradient
 
 
-# The small helpers below are ordinary compiled functions, which LLVM inlines anyway;
-# inlining them at the Numba IR level too (``device``) doubled the compile time of the
-# curl kernel (4.6 s -> 7 s) for no speed-up. ``_noise`` and ``_potential`` stay
-# ``device``: left as calls, the kernel ran 30% slower.
+# Both kernels evaluate the field from the same helpers; ``_curl_noise_kernel`` arranges
+# them in passes so that LLVM vectorises the arithmetic (its docstring says how).
+#
+# The small helpers are ordinary compiled functions, which LLVM inlines anyway; inlining
+# them at the Numba IR level too (``device``) doubled the compile time for no speed-up.
+# ``_noise`` stays ``device``: left as a call, it is too large for LLVM to inline, and a
+# call in the loop blocks vectorisation.
 @serial_kernel
-def _fade(t, real):
-    """Perlin's quintic ``6t^5 - 15t^4 + 10t^3`` and its derivative ``30 t^2 (t - 1)^2``."""
+def _lattice_cell(p, real):
+    """Lattice cell ``floor(p) mod 256`` of coordinate ``p``, as an int in 0..255.
+
+    The modulo is taken in floating point, where it is exact, so the conversion to int32
+    (which vectorises, unlike the conversion to int64) cannot overflow however far ``p``
+    lies from the origin.
+    """
+    cell = np.floor(p)
+    return np.int32(cell - real(PERIOD) * np.floor(cell * real(1 / PERIOD))) & 255
+
+
+@serial_kernel
+def _fraction(p, real):
+    """Fractional coordinate ``t = p - floor(p)`` and Perlin's quintic fade of it.
+
+    Returns ``t``, ``6t^5 - 15t^4 + 10t^3`` and its derivative ``30 t^2 (t - 1)^2``.
+    """
+    t = p - np.floor(p)
     s = t * (t - real(1))
-    return t * t * t * (t * (t * real(6) - real(15)) + real(10)), real(30) * s * s
+    return t, t * t * t * (t * (t * real(6) - real(15)) + real(10)), real(30) * s * s
+
+
+@serial_kernel
+def _hash(hash_pairs, ramp_pairs, k, cx, cy, cz):
+    """Perlin's hash ``perm[perm[perm[X] + Y] + Z]`` of the eight corners of a cell.
+
+    Returns two words of four 6-bit gradient codes (:func:`corner_tables`): the corners
+    ``(X, Y, Z), (X, Y, Z+1), (X, Y+1, Z), (X, Y+1, Z+1)`` and the same at ``X + 1``.
+    The ``& 255`` masks are no-ops that tell LLVM the indices are not negative, so it
+    drops Numba's negative-index wraparound.
+    """
+    e = hash_pairs[k, cx]
+    a = (e & 255) + cy
+    b = ((e >> 8) & 255) + cy
+    ea = hash_pairs[k, a]
+    eb = hash_pairs[k, b]
+    aa = (ea & 255) + cz
+    ab = ((ea >> 8) & 255) + cz
+    ba = (eb & 255) + cz
+    bb = ((eb >> 8) & 255) + cz
+    low = ramp_pairs[k, aa] | (ramp_pairs[k, ab] << 12)
+    high = ramp_pairs[k, ba] | (ramp_pairs[k, bb] << 12)
+    return low, high
+
+
+@serial_kernel
+def _ramp(code, x, y, z, real):
+    """Gradient ``g`` of 6-bit code ``code`` (its low bits) and the ramp ``g · (x, y, z)``."""
+    # int32 before the conversion to float: int64 -> float does not vectorise on AVX2.
+    gx = real(np.int32(code & 3)) - real(1)
+    gy = real(np.int32((code >> 2) & 3)) - real(1)
+    gz = real(np.int32((code >> 4) & 3)) - real(1)
+    return gx, gy, gz, gx * x + gy * y + gz * z
 
 
 @serial_kernel
@@ -198,136 +270,152 @@ def _trilerp(u, v, w, c000, c100, c010, c110, c001, c101, c011, c111):
     )
 
 
-@serial_kernel
-def _blend_gradients(u, v, w, grads, corners, j):
-    """Component ``j`` of the corner gradients ``grads[corners]``, blended like values."""
-    return _trilerp(
-        u,
-        v,
-        w,
-        grads[corners[0], j],
-        grads[corners[1], j],
-        grads[corners[2], j],
-        grads[corners[3], j],
-        grads[corners[4], j],
-        grads[corners[5], j],
-        grads[corners[6], j],
-        grads[corners[7], j],
-    )
-
-
 @device
-def _noise(px, py, pz, perm, k, grads, real):
-    """Value and gradient of Perlin's improved noise with permutation row ``k`` at ``p``.
+def _noise(low, high, x, y, z, u, v, w, du, dv, dw, real):
+    """Value and gradient of Perlin's improved noise in one lattice cell.
 
-    The noise is ``n = trilerp(u, v, w; n_c)``: the blend, with fade weights
-    ``u = fade(x)``, ``v = fade(y)``, ``w = fade(z)`` of the fractional coordinates, of
-    the corner ramps ``n_c = g_c · (p - c)``. By the product rule
+    ``low, high`` are the corner codes from :func:`_hash`; ``x, y, z`` the fractional
+    coordinates, ``u, v, w`` their fades and ``du, dv, dw`` the fades' derivatives
+    (:func:`_fraction`). The noise is ``n = trilerp(u, v, w; n_c)``: the blend of the
+    corner ramps ``n_c = g_c · (p - c)``. By the product rule
     ``∂n/∂x = trilerp(u, v, w; g_c,x) + fade'(x) ∂trilerp/∂u``, where ``∂trilerp/∂u`` is
     the bilinear blend over ``(v, w)`` of the differences ``n_1yz - n_0yz`` along x.
     """
-    fx = np.floor(px)
-    fy = np.floor(py)
-    fz = np.floor(pz)
-    x = px - fx
-    y = py - fy
-    z = pz - fz
-    # Lattice cell modulo the period; `& 255` is a true modulo for negative cells too.
-    cx = int(fx) & 255
-    cy = int(fy) & 255
-    cz = int(fz) & 255
-    # Perlin's hash of the eight corners (the table repeats, so no index wraps).
-    a = perm[k, cx] + cy
-    aa = perm[k, a] + cz
-    ab = perm[k, a + 1] + cz
-    b = perm[k, cx + 1] + cy
-    ba = perm[k, b] + cz
-    bb = perm[k, b + 1] + cz
-    h000 = perm[k, aa] & 15
-    h100 = perm[k, ba] & 15
-    h010 = perm[k, ab] & 15
-    h110 = perm[k, bb] & 15
-    h001 = perm[k, aa + 1] & 15
-    h101 = perm[k, ba + 1] & 15
-    h011 = perm[k, ab + 1] & 15
-    h111 = perm[k, bb + 1] & 15
     one = real(1)
     x1 = x - one
     y1 = y - one
     z1 = z - one
-    n000 = grads[h000, 0] * x + grads[h000, 1] * y + grads[h000, 2] * z
-    n100 = grads[h100, 0] * x1 + grads[h100, 1] * y + grads[h100, 2] * z
-    n010 = grads[h010, 0] * x + grads[h010, 1] * y1 + grads[h010, 2] * z
-    n110 = grads[h110, 0] * x1 + grads[h110, 1] * y1 + grads[h110, 2] * z
-    n001 = grads[h001, 0] * x + grads[h001, 1] * y + grads[h001, 2] * z1
-    n101 = grads[h101, 0] * x1 + grads[h101, 1] * y + grads[h101, 2] * z1
-    n011 = grads[h011, 0] * x + grads[h011, 1] * y1 + grads[h011, 2] * z1
-    n111 = grads[h111, 0] * x1 + grads[h111, 1] * y1 + grads[h111, 2] * z1
-    u, du = _fade(x, real)
-    v, dv = _fade(y, real)
-    w, dw = _fade(z, real)
+    g000x, g000y, g000z, n000 = _ramp(low, x, y, z, real)
+    g001x, g001y, g001z, n001 = _ramp(low >> 6, x, y, z1, real)
+    g010x, g010y, g010z, n010 = _ramp(low >> 12, x, y1, z, real)
+    g011x, g011y, g011z, n011 = _ramp(low >> 18, x, y1, z1, real)
+    g100x, g100y, g100z, n100 = _ramp(high, x1, y, z, real)
+    g101x, g101y, g101z, n101 = _ramp(high >> 6, x1, y, z1, real)
+    g110x, g110y, g110z, n110 = _ramp(high >> 12, x1, y1, z, real)
+    g111x, g111y, g111z, n111 = _ramp(high >> 18, x1, y1, z1, real)
     value = _trilerp(u, v, w, n000, n100, n010, n110, n001, n101, n011, n111)
     dndu = _lerp(w, _lerp(v, n100 - n000, n110 - n010), _lerp(v, n101 - n001, n111 - n011))
     dndv = _lerp(w, _lerp(u, n010 - n000, n110 - n100), _lerp(u, n011 - n001, n111 - n101))
     dndw = _lerp(v, _lerp(u, n001 - n000, n101 - n100), _lerp(u, n011 - n010, n111 - n110))
-    corners = (h000, h100, h010, h110, h001, h101, h011, h111)
-    gx = du * dndu + _blend_gradients(u, v, w, grads, corners, 0)
-    gy = dv * dndv + _blend_gradients(u, v, w, grads, corners, 1)
-    gz = dw * dndw + _blend_gradients(u, v, w, grads, corners, 2)
+    gx = du * dndu + _trilerp(u, v, w, g000x, g100x, g010x, g110x, g001x, g101x, g011x, g111x)
+    gy = dv * dndv + _trilerp(u, v, w, g000y, g100y, g010y, g110y, g001y, g101y, g011y, g111y)
+    gz = dw * dndw + _trilerp(u, v, w, g000z, g100z, g010z, g110z, g001z, g101z, g011z, g111z)
     return value, gx, gy, gz
 
 
-@device
-def _potential(px, py, pz, perm, k, grads, octaves, real):
-    """``ψ_k = Σ_o 4^-o N_k(2^o p)`` and its gradient ``Σ_o 2^-o ∇N_k(2^o p)``."""
-    half = real(0.5)
-    frequency = real(1)
-    amplitude = real(1)  # of the gradient; the value's is amplitude / frequency
-    value = real(0)
-    gx = real(0)
-    gy = real(0)
-    gz = real(0)
-    for _ in range(octaves):
-        n, nx, ny, nz = _noise(frequency * px, frequency * py, frequency * pz, perm, k, grads, real)
-        value += amplitude / frequency * n
-        gx += amplitude * nx
-        gy += amplitude * ny
-        gz += amplitude * nz
-        frequency += frequency
-        amplitude *= half
-    return value, gx, gy, gz
+@serial_kernel
+def _hash_cells(hash_pairs, ramp_pairs, k, cells, low, high, count):
+    """``low[j], high[j]``: the corner codes of the packed cells ``cells[j]``, j < count.
+
+    Pass 2 of :func:`_curl_noise_kernel`, one potential (table row ``k``) at a time.
+    """
+    for j in range(count):
+        c = cells[j]
+        a, b = _hash(hash_pairs, ramp_pairs, k, c & 255, (c >> 8) & 255, (c >> 16) & 255)
+        low[j] = a
+        high[j] = b
 
 
 @parallel_kernel
 def _curl_noise_kernel(
-    x, y, z, mass, perm, grads, strength, inv_scale, shift, octaves, out_x, out_y, out_z
+    x, y, z, mass, hash_pairs, ramp_pairs, strength, inv_scale, shift, octaves, out_x, out_y, out_z
 ):
-    """``out[:, i] += m_i strength (∇_p × ψ)(x_i / scale)``."""
+    """``out[:, i] += m_i strength (∇_p × ψ)(x_i / scale)``.
+
+    Each block of particles runs in three passes per octave, through per-block scratch
+    arrays, so that LLVM vectorises the floating-point work. Table lookups (gathers) do
+    not vectorise well: in one loop doing everything, LLVM emulated most of the SIMD lane
+    by lane, which took twice the time of these passes (AMD Zen 3, AVX2):
+
+    1. the lattice cells of the three potentials' sample points, packed 8 bits per axis
+       (vectorised);
+    2. Perlin's hash of each cell's corners: table lookups, scalar (:func:`_hash_cells`);
+    3. fades, ramps and noise gradients, summed over octaves (vectorised).
+
+    Each pass loops over the block's particles, so which of them take a vectorised body
+    and which its scalar remainder depends on ``BLOCK`` only (see :mod:`motes._jit`).
+    """
     real = x.dtype.type
     uniform = mass.shape[0] == 0
     n = x.shape[0]
     for block in numba.prange(block_count(n)):
         start, stop = block_bounds(block, n)
-        for i in range(start, stop):
-            px = x[i] * inv_scale
-            py = y[i] * inv_scale
-            pz = z[i] * inv_scale
-            # Potential k drifts along axis k (module docstring); only its gradient is used.
-            _, _, d0y, d0z = _potential(px + shift, py, pz, perm, 0, grads, octaves, real)
-            _, d1x, _, d1z = _potential(px, py + shift, pz, perm, 1, grads, octaves, real)
-            _, d2x, d2y, _ = _potential(px, py, pz + shift, perm, 2, grads, octaves, real)
+        count = stop - start
+        cells = np.empty((3, BLOCK), dtype=np.int32)
+        corners = np.empty((6, BLOCK), dtype=np.int32)
+        # The four components of ∇ψ_k the curl uses: ∂0/∂y ∂0/∂z ∂1/∂x ∂1/∂z ∂2/∂x ∂2/∂y.
+        grad = np.zeros((6, BLOCK), dtype=x.dtype)
+        frequency = real(1)
+        amplitude = real(1)
+        for _ in range(octaves):
+            for j in range(count):
+                i = start + j
+                px = x[i] * inv_scale
+                py = y[i] * inv_scale
+                pz = z[i] * inv_scale
+                # Potential k drifts along axis k (module docstring).
+                cx = _lattice_cell(frequency * px, real)
+                cy = _lattice_cell(frequency * py, real)
+                cz = _lattice_cell(frequency * pz, real)
+                sx = _lattice_cell(frequency * (px + shift), real)
+                sy = _lattice_cell(frequency * (py + shift), real)
+                sz = _lattice_cell(frequency * (pz + shift), real)
+                cells[0, j] = sx | (cy << 8) | (cz << 16)
+                cells[1, j] = cx | (sy << 8) | (cz << 16)
+                cells[2, j] = cx | (cy << 8) | (sz << 16)
+            for k in range(3):
+                _hash_cells(
+                    hash_pairs, ramp_pairs, k, cells[k], corners[2 * k], corners[2 * k + 1], count
+                )
+            for j in range(count):
+                i = start + j
+                px = x[i] * inv_scale
+                py = y[i] * inv_scale
+                pz = z[i] * inv_scale
+                fx, ux, dux = _fraction(frequency * px, real)
+                fy, uy, duy = _fraction(frequency * py, real)
+                fz, uz, duz = _fraction(frequency * pz, real)
+                sx, vx, dvx = _fraction(frequency * (px + shift), real)
+                sy, vy, dvy = _fraction(frequency * (py + shift), real)
+                sz, vz, dvz = _fraction(frequency * (pz + shift), real)
+                # Only the gradient is used; LLVM drops the values and unused components.
+                _, _, d0y, d0z = _noise(
+                    corners[0, j], corners[1, j], sx, fy, fz, vx, uy, uz, dvx, duy, duz, real
+                )
+                _, d1x, _, d1z = _noise(
+                    corners[2, j], corners[3, j], fx, sy, fz, ux, vy, uz, dux, dvy, duz, real
+                )
+                _, d2x, d2y, _ = _noise(
+                    corners[4, j], corners[5, j], fx, fy, sz, ux, uy, vz, dux, duy, dvz, real
+                )
+                grad[0, j] += amplitude * d0y
+                grad[1, j] += amplitude * d0z
+                grad[2, j] += amplitude * d1x
+                grad[3, j] += amplitude * d1z
+                grad[4, j] += amplitude * d2x
+                grad[5, j] += amplitude * d2y
+            frequency += frequency
+            amplitude *= real(0.5)
+        for j in range(count):
+            i = start + j
             scale = strength
             if not uniform:
                 scale *= mass[i]
-            out_x[i] += scale * (d2y - d1z)
-            out_y[i] += scale * (d0z - d2x)
-            out_z[i] += scale * (d1x - d0y)
+            out_x[i] += scale * (grad[5, j] - grad[3, j])
+            out_y[i] += scale * (grad[1, j] - grad[4, j])
+            out_z[i] += scale * (grad[2, j] - grad[0, j])
 
 
 @parallel_kernel
-def _potential_kernel(x, y, z, perm, grads, inv_scale, shift, octaves, psi, gradient):
-    """``psi[k, i] = ψ_k(p_i)`` and ``gradient[k, j, i] = ∂ψ_k/∂p_j`` at ``p = x / scale``."""
+def _potential_kernel(x, y, z, hash_pairs, ramp_pairs, inv_scale, shift, octaves, psi, gradient):
+    """``psi[k, i] = ψ_k(p_i)`` and ``gradient[k, j, i] = ∂ψ_k/∂p_j`` at ``p = x / scale``.
+
+    The plain per-particle form of the field: for diagnostics, and a check on the passes
+    of :func:`_curl_noise_kernel`, which evaluates it from the same helpers.
+    ``ψ_k = Σ_o 4^-o N_k(2^o p)``, so its gradient is ``Σ_o 2^-o ∇N_k(2^o p)``.
+    """
     real = x.dtype.type
+    zero = real(0)
     n = x.shape[0]
     for block in numba.prange(block_count(n)):
         start, stop = block_bounds(block, n)
@@ -336,16 +424,34 @@ def _potential_kernel(x, y, z, perm, grads, inv_scale, shift, octaves, psi, grad
             py = y[i] * inv_scale
             pz = z[i] * inv_scale
             for k in range(3):
-                value, gx, gy, gz = _potential(
-                    px + (shift if k == 0 else real(0)),
-                    py + (shift if k == 1 else real(0)),
-                    pz + (shift if k == 2 else real(0)),
-                    perm,
-                    k,
-                    grads,
-                    octaves,
-                    real,
-                )
+                qx = px + (shift if k == 0 else zero)
+                qy = py + (shift if k == 1 else zero)
+                qz = pz + (shift if k == 2 else zero)
+                frequency = real(1)
+                amplitude = real(1)  # of the gradient; the value's is amplitude / frequency
+                value = zero
+                gx = zero
+                gy = zero
+                gz = zero
+                for _ in range(octaves):
+                    low, high = _hash(
+                        hash_pairs,
+                        ramp_pairs,
+                        k,
+                        _lattice_cell(frequency * qx, real),
+                        _lattice_cell(frequency * qy, real),
+                        _lattice_cell(frequency * qz, real),
+                    )
+                    fx, ux, dux = _fraction(frequency * qx, real)
+                    fy, uy, duy = _fraction(frequency * qy, real)
+                    fz, uz, duz = _fraction(frequency * qz, real)
+                    nv, nx, ny, nz = _noise(low, high, fx, fy, fz, ux, uy, uz, dux, duy, duz, real)
+                    value += amplitude / frequency * nv
+                    gx += amplitude * nx
+                    gy += amplitude * ny
+                    gz += amplitude * nz
+                    frequency += frequency
+                    amplitude *= real(0.5)
                 psi[k, i] = value
                 gradient[k, 0, i] = gx
                 gradient[k, 1, i] = gy
