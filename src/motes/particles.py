@@ -266,9 +266,9 @@ class ParticleStore:
         if mask[:n].all():
             return None
         new_index = np.empty(n, dtype=np.int64)
-        survivors, first = _stable_index(mask, n, new_index)
+        survivors = _stable_index(mask, n, new_index)
         for group in self._groups:
-            _compact_rows(group, mask, first, n)
+            _compact_rows(group, mask, n)
         self.count = survivors
         self._keep[:n] = True
         return new_index
@@ -288,27 +288,23 @@ class ParticleStore:
 
 @serial_kernel
 def _stable_index(keep, n, new_index):
-    """New index of each particle (-1 if dead); returns (survivors, first dead index)."""
     j = 0
-    first = n
     for i in range(n):
         if keep[i]:
             new_index[i] = j
             j += 1
         else:
             new_index[i] = -1
-            first = min(first, i)
-    return j, first
+    return j
 
 
 @serial_kernel
-def _compact_rows(arrays, keep, first, n):
-    # In place is safe: the write index j never passes the read index i. Particles
-    # before the first death stay where they are.
+def _compact_rows(arrays, keep, n):
+    # In place is safe: the write index j never passes the read index i.
     for array in arrays:
         for c in range(array.shape[0]):
-            j = first
-            for i in range(first, n):
+            j = 0
+            for i in range(n):
                 if keep[i]:
                     array[c, j] = array[c, i]
                     j += 1
