@@ -29,9 +29,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import prange
 
 from . import _validate as check
-from ._jit import serial_kernel
+from ._jit import parallel_kernel, serial_kernel
 
 #: Placeholder dtype meaning "the store's floating-point precision" (float32 or float64).
 REAL = "real"
@@ -298,13 +299,15 @@ def _stable_index(keep, n, new_index):
     return j
 
 
-@serial_kernel
+@parallel_kernel
 def _compact_rows(arrays, keep, n):
-    # In place is safe: the write index j never passes the read index i.
+    # Rows are independent, so they go to threads whole; within a row the compaction is
+    # in place, which is safe because the write index j never passes the read index i.
     for array in arrays:
-        for c in range(array.shape[0]):
+        for c in prange(array.shape[0]):
+            # Branch-free: always copy, advance only past survivors (a dead particle's
+            # slot is overwritten by the next survivor).
             j = 0
             for i in range(n):
-                if keep[i]:
-                    array[c, j] = array[c, i]
-                    j += 1
+                array[c, j] = array[c, i]
+                j += keep[i]
