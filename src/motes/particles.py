@@ -32,7 +32,7 @@ import numpy as np
 from numba import prange
 
 from . import _validate as check
-from ._jit import parallel_kernel, serial_kernel
+from ._jit import SERIAL_BELOW, device, parallel_kernel, serial_kernel
 
 #: Placeholder dtype meaning "the store's floating-point precision" (float32 or float64).
 REAL = "real"
@@ -268,8 +268,9 @@ class ParticleStore:
             return None
         new_index = np.empty(n, dtype=np.int64)
         survivors = _stable_index(mask, n, new_index)
+        compact_rows = _compact_rows_parallel if n >= SERIAL_BELOW else _compact_rows_serial
         for group in self._groups:
-            _compact_rows(group, mask, n)
+            compact_rows(group, mask, n)
         self.count = survivors
         self._keep[:n] = True
         return new_index
@@ -299,15 +300,27 @@ def _stable_index(keep, n, new_index):
     return j
 
 
+@device
+def _compact_row(row, keep, n):
+    # In place is safe: the write index j never passes the read index i. Branch-free:
+    # always copy, advance only past survivors (a dead slot is overwritten next).
+    j = 0
+    for i in range(n):
+        row[j] = row[i]
+        j += keep[i]
+
+
 @parallel_kernel
-def _compact_rows(arrays, keep, n):
-    # Rows are independent, so they go to threads whole; within a row the compaction is
-    # in place, which is safe because the write index j never passes the read index i.
+def _compact_rows_parallel(arrays, keep, n):
+    # Rows are independent: whole rows go to threads.
     for array in arrays:
         for c in prange(array.shape[0]):
-            # Branch-free: always copy, advance only past survivors (a dead particle's
-            # slot is overwritten by the next survivor).
-            j = 0
-            for i in range(n):
-                array[c, j] = array[c, i]
-                j += keep[i]
+            _compact_row(array[c], keep, n)
+
+
+@serial_kernel
+def _compact_rows_serial(arrays, keep, n):
+    # Small stores: one pass without the cost of a parallel region per array.
+    for array in arrays:
+        for c in range(array.shape[0]):
+            _compact_row(array[c], keep, n)
