@@ -109,6 +109,10 @@ class _OverLife:
         out2d = out if out.ndim == 2 else out.reshape(1, -1)
         base = store.raw(f"birth_{self.attribute}") if self.multiply else out2d
         base2d = base if base.ndim == 2 else base.reshape(1, -1)
+        self._evaluate(store, n, base2d, self.multiply, out2d)
+
+    def _evaluate(self, store, n, base, multiply, out) -> None:
+        """``out`` (c, ≥ n) = curve(normalised age), times ``base`` if ``multiply``."""
         _apply_curve(
             n,
             store.raw("age"),
@@ -116,9 +120,9 @@ class _OverLife:
             self._times,
             self._values,
             self._slopes,
-            base2d,
-            self.multiply,
-            out2d,
+            base,
+            multiply,
+            out,
         )
 
 
@@ -182,15 +186,5 @@ class SpeedOverLife(_OverLife):
             return
         speed = np.empty((1, n), dtype=store.dtype)
         base = store.raw("birth_speed")[:n].reshape(1, -1)
-        _apply_curve(
-            n,
-            store.raw("age"),
-            store.raw("lifetime"),
-            self._times,
-            self._values,
-            self._slopes,
-            base,
-            True,
-            speed,
-        )
+        self._evaluate(store, n, base, True, speed)
         _set_speed(n, store.raw("velocity"), speed[0])
