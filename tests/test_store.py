@@ -127,3 +127,42 @@ def test_conflicting_declaration():
     store = ParticleStore(3, (Attribute("heat", default=1.0),))
     with pytest.raises(ValueError, match="heat"):
         store.require(Attribute("heat", default=2.0))
+
+
+def test_swap_compaction_moves_few_and_keeps_attributes_together():
+    store = ParticleStore(10, ("color",), compaction="swap")
+    store.spawn(10)
+    store["position"] = np.arange(30.0).reshape(10, 3)
+    store["color"] = np.arange(40.0).reshape(10, 4)
+    keep = np.array([1, 0, 1, 1, 0, 1, 1, 1, 0, 1], dtype=bool)
+    new_index = store.compact(keep)
+    # Holes 1 and 4 are filled by the last survivors 9 and 7; 8 (dead) is dropped.
+    assert_array_equal(store["id"], [0, 9, 2, 3, 7, 5, 6])
+    assert_array_equal(new_index, [0, -1, 2, 3, -1, 5, 6, 4, -1, 1])
+    ids = store["id"]
+    assert_array_equal(store["position"], np.arange(30.0).reshape(10, 3)[ids])
+    assert_array_equal(store["color"], np.arange(40.0).reshape(10, 4)[ids])
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_swap_and_stable_compaction_keep_the_same_particles(seed):
+    rng = np.random.default_rng(seed)
+    keep = rng.random(5000) < rng.random()
+    stores = {}
+    for mode in ("stable", "swap"):
+        store = ParticleStore(5000, ("size",), compaction=mode)
+        store.spawn(5000)
+        store["size"] = np.arange(5000.0)
+        index = store.compact(keep.copy())
+        stores[mode] = (store, index)
+    stable, swap = stores["stable"][0], stores["swap"][0]
+    assert stable.count == swap.count == keep.sum()
+    assert_array_equal(np.sort(swap["id"]), stable["id"])
+    assert_array_equal(swap["size"], swap["id"].astype(float))
+    index = stores["swap"][1]
+    assert_array_equal(swap["id"][index[keep]], np.flatnonzero(keep))
+
+
+def test_unknown_compaction_is_named():
+    with pytest.raises(ValueError, match="compaction must be one of"):
+        ParticleStore(3, compaction="shuffle")

@@ -8,7 +8,7 @@ No physics lives here, only orchestration. One step (Reeves' frame) runs:
    resolves colliders, ages every particle and flags the ones whose life is over
    (multi-stage integrators advance first, then run the same kernel without moving);
 4. **extinguish**: other extinction policies flag particles; events (collision, death)
-   are delivered; dead particles are removed by one stable compaction;
+   are delivered; dead particles are removed by one compaction;
 5. **over-life**: colour, size and speed curves update the survivors;
 6. **children**: child systems (spawned by this system's events) take their step.
 """
@@ -66,6 +66,10 @@ class ParticleSystem:
         Fraction of velocity lost per step by the ``verlet`` integrator, in [0, 1).
     attributes : iterable of str or Attribute
         Extra attributes to allocate up front.
+    compaction : {"stable", "swap"}
+        How dead particles are removed: ``"stable"`` keeps the order of the survivors,
+        ``"swap"`` fills holes from the tail (far less data moved; see
+        :class:`~motes.ParticleStore`).
     """
 
     def __init__(
@@ -77,8 +81,9 @@ class ParticleSystem:
         dtype=np.float32,
         verlet_damping: float = 0.0,
         attributes=(),
+        compaction: str = "stable",
     ):
-        self.store = ParticleStore(capacity, attributes, dtype=dtype)
+        self.store = ParticleStore(capacity, attributes, dtype=dtype, compaction=compaction)
         self.seed_sequence = np.random.SeedSequence(check.integer("seed", seed, low=0))
         self.rng = np.random.default_rng(self.seed_sequence)
         try:
