@@ -4,15 +4,16 @@ import numba
 import numpy as np
 from numpy.testing import assert_array_equal
 
+from motes._jit import SERIAL_BELOW
 from motes.demo import build_fire
 
 
-def fire_state(seed, steps=1000, threads=None):
+def fire_state(seed, steps=1000, threads=None, rate=60):
     previous = numba.get_num_threads()
     if threads is not None:
         numba.set_num_threads(threads)
     try:
-        fire = build_fire(capacity=20_000, rate=60, seed=seed)
+        fire = build_fire(capacity=40_000, rate=rate, seed=seed)
         for _ in range(steps):
             fire.step(1 / 60)
         return {name: fire.store[name].copy() for name in fire.store.names}
@@ -39,7 +40,9 @@ def test_different_seeds_differ():
 def test_result_does_not_depend_on_thread_count():
     if numba.config.NUMBA_NUM_THREADS < 2:
         return
-    one = fire_state(5, steps=200, threads=1)
-    two = fire_state(5, steps=200, threads=2)
+    # ~18,000 live particles: above SERIAL_BELOW, so two threads really run in parallel.
+    one = fire_state(5, steps=120, threads=1, rate=300)
+    two = fire_state(5, steps=120, threads=2, rate=300)
+    assert one["id"].shape[0] > SERIAL_BELOW
     for name in one:
         assert_array_equal(one[name], two[name], err_msg=name)

@@ -16,19 +16,20 @@ def test_fireworks_child_counts_match_parent_deaths():
     rockets, trails, sparks = build_fireworks(seed=3)
     deaths = []
     rockets.on("death", lambda e: deaths.append(len(e)))
-    spark_births = []
+    spark_births, trail_births = [], []
     sparks.on("birth", lambda e: spark_births.append(len(e)))
-    live_before = []
+    trails.on("birth", lambda e: trail_births.append(len(e)))
+    live_after = []
     for _ in range(150):
-        live_before.append(len(rockets))
         rockets.step(1 / 60)
+        live_after.append(len(rockets))
     assert sum(deaths) >= 3
     # 200 sparks per dead rocket, born in the parent's step, none dropped.
     assert sum(spark_births) == 200 * sum(deaths)
     assert sparks.store.dropped == 0
-    # One trail particle per live rocket per step.
-    assert trails.store.count + 0 <= sum(live_before)
-    assert len(trails) > 0
+    # One trail particle per live rocket per step (the "step" event follows each step).
+    assert trail_births == [k for k in live_after if k > 0]
+    assert trails.store.dropped == 0
 
 
 def test_children_inherit_position_colour_and_velocity_fraction():
