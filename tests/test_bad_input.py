@@ -37,7 +37,7 @@ import motes as mo
         (lambda: mo.ColorOverLife([(0.5, "#zzzzzz")]), ValueError, "colour"),
         (lambda: mo.ColorOverLife([(1.5, "#ffffff")]), ValueError, "key time must be <= 1"),
         (lambda: mo.Path([1, 0], [[0, 0, 0], [1, 1, 1]]), ValueError, "strictly increasing"),
-        (lambda: mo.PinholeCamera((0, 0, 0), (0, 0, 0)), ValueError, "target must differ"),
+        (lambda: mo.Camera((0, 0, 0), (0, 0, 0)), ValueError, "target must differ"),
     ],
 )
 def test_constructor_errors_name_the_parameter(build, error, match):

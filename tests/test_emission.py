@@ -61,9 +61,9 @@ def test_burst_once_and_repeating():
 
 
 def test_screen_scaled_rate_follows_screen_coverage():
-    near = mo.PinholeCamera((0, 0, 3), (0, 0, 0), fov=60, aspect=1.0)
-    far = mo.PinholeCamera((0, 0, 30), (0, 0, 0), fov=60, aspect=1.0)
-    behind = mo.PinholeCamera((0, 0, 3), (0, 0, 10), fov=60, aspect=1.0)
+    near = mo.Camera((0, 0, 3), (0, 0, 0), fov=60, resolution=(400, 400))
+    far = mo.Camera((0, 0, 30), (0, 0, 0), fov=60, resolution=(400, 400))
+    behind = mo.Camera((0, 0, 3), (0, 0, 10), fov=60, resolution=(400, 400))
     shape = mo.shapes.Sphere(0.5)
     totals = {}
     for name, cam in (("near", near), ("far", far), ("behind", behind)):

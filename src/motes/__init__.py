@@ -10,7 +10,7 @@ True
 """
 
 from . import colliders, shapes
-from .camera import PinholeCamera
+from .render.camera import Camera, Projection
 from .collide import Friction, Response
 from .emit import (
     Burst,
@@ -68,6 +68,7 @@ __all__ = [
     "AlphaBelow",
     "Attribute",
     "Burst",
+    "Camera",
     "CallbackForce",
     "ColorOverLife",
     "Cone",
@@ -95,9 +96,9 @@ __all__ = [
     "ParticleStore",
     "ParticleSystem",
     "Path",
+    "Projection",
     "PerFrame",
     "PerSecond",
-    "PinholeCamera",
     "QuadraticDrag",
     "Radial",
     "RadialField",
