@@ -1,0 +1,93 @@
+"""Tone mapping: linear HDR radiance to 8-bit sRGB pixels."""
+
+from __future__ import annotations
+
+from enum import StrEnum
+
+import numba
+import numpy as np
+
+from .. import _validate as check
+from .._jit import parallel_kernel
+from ..color import linear_to_srgb
+
+
+class ToneMap(StrEnum):
+    """Curve that compresses HDR radiance into [0, 1] before sRGB encoding.
+
+    ``clamp`` clips at 1 (exact for LDR scenes); ``reinhard`` is x / (1 + x)
+    (Reinhard et al. 2002); ``aces`` is Narkowicz's (2015) fit of the ACES filmic curve,
+    which keeps dense additive fire from burning out to flat white.
+    """
+
+    CLAMP = "clamp"
+    REINHARD = "reinhard"
+    ACES = "aces"
+
+
+#: Entries of the lookup table over u = x / (1 + x), which maps [0, inf) onto [0, 1).
+LUT_SIZE = 4096
+
+
+def _curve(x: np.ndarray, curve: ToneMap) -> np.ndarray:
+    if curve is ToneMap.REINHARD:
+        return x / (1.0 + x)
+    if curve is ToneMap.ACES:
+        return (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)
+    return x
+
+
+def _lookup_table(curve: ToneMap) -> np.ndarray:
+    """sRGB-encoded output [0, 255] sampled uniformly in u = x / (1 + x), float32.
+
+    Evaluating pow() per channel cost 38 ms for a 1280×720 frame; interpolating this
+    table costs a few, and the interpolation error is far below one output step.
+    """
+    u = np.linspace(0.0, 1.0, LUT_SIZE + 1)
+    x = u / np.maximum(1.0 - u, 1e-12)  # the last entry stands for +inf
+    y = _curve(x, curve)
+    return (255.0 * linear_to_srgb(np.minimum(y, 1.0))).astype(np.float32)
+
+
+@parallel_kernel
+def _tonemap_kernel(color, exposure, lut, out):
+    height, width, _ = color.shape
+    size = lut.shape[0] - 1
+    for row in numba.prange(height):
+        for col in range(width):
+            for ch in range(3):
+                x = max(color[row, col, ch] * exposure, 0.0)
+                f = x / (1.0 + x) * size
+                i = min(int(f), size - 1)
+                w = f - i
+                out[row, col, ch] = np.uint8(lut[i] + w * (lut[i + 1] - lut[i]) + 0.5)
+
+
+def to_srgb8(color, *, exposure: float = 1.0, tonemap: str = "aces", out=None) -> np.ndarray:
+    """Tone-map a linear HDR image and encode it as sRGB.
+
+    Parameters
+    ----------
+    color : (h, w, 3) float32
+        Linear radiance (a :class:`~motes.render.frame.Frame`'s ``color``).
+    exposure : float
+        Multiplier applied before the curve, > 0 (photographic exposure: ×2 = one stop).
+    tonemap : {"clamp", "reinhard", "aces"}
+    out : (h, w, 3) uint8, optional
+        Buffer to write into.
+
+    Returns
+    -------
+    (h, w, 3) uint8 sRGB image.
+    """
+    color = np.asarray(color)
+    if color.ndim != 3 or color.shape[2] != 3:
+        raise ValueError(f"color must have shape (h, w, 3), got {color.shape}")
+    exposure = check.positive("exposure", exposure)
+    curve = ToneMap(check.choice("tonemap", tonemap, [t.value for t in ToneMap]))
+    if out is None:
+        out = np.empty(color.shape, dtype=np.uint8)
+    _tonemap_kernel(
+        np.ascontiguousarray(color, dtype=np.float32), exposure, _lookup_table(curve), out
+    )
+    return out

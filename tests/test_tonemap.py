@@ -1,0 +1,54 @@
+"""Tone mapping, sRGB encoding and backgrounds."""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from motes.color import linear_to_srgb, parse_color, srgb_to_linear
+from motes.render.background import Background
+from motes.render.frame import Frame
+from motes.render.tonemap import to_srgb8
+
+CURVES = {
+    "clamp": lambda x: x,
+    "reinhard": lambda x: x / (1 + x),
+    "aces": lambda x: (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14),
+}
+
+
+@pytest.mark.parametrize("curve", sorted(CURVES))
+def test_tonemap_matches_the_exact_curve_within_one_step(curve):
+    rng = np.random.default_rng(0)
+    color = rng.uniform(0, 4, (40, 50, 3)).astype(np.float32)
+    color[0, :, 0] = np.linspace(0, 0.02, 50)  # the linear toe of sRGB
+    out = to_srgb8(color, tonemap=curve, exposure=1.5)
+    y = CURVES[curve](1.5 * color.astype(np.float64))
+    exact = np.round(255 * linear_to_srgb(np.minimum(y, 1))).astype(int)
+    diff = np.abs(out.astype(int) - exact)
+    # The lookup table is interpolated: only values within a hair of a rounding boundary
+    # may land on the neighbouring step.
+    assert diff.max() <= 1
+    assert (diff > 0).mean() < 1e-3
+
+
+def test_hex_colours_round_trip_through_linear_light():
+    rgba = parse_color("#ff7a1a80")
+    assert_allclose(rgba[3], 128 / 255)
+    assert_allclose(srgb_to_linear(linear_to_srgb(rgba[:3])), rgba[:3], atol=1e-12)
+    frame = Frame(4, 2)
+    Background("#ff7a1a").fill(frame)
+    assert (to_srgb8(frame.color, tonemap="clamp") == [255, 122, 26]).all()
+
+
+def test_gradient_background_blends_rows_linearly():
+    frame = Frame(3, 4)
+    Background((1.0, 0.0, 0.0), (0.0, 0.0, 1.0)).fill(frame)
+    assert_allclose(frame.color[:, 0, 0], [0.875, 0.625, 0.375, 0.125])
+    assert_allclose(frame.color[:, 2, 2], [0.125, 0.375, 0.625, 0.875])
+
+
+def test_tonemap_rejects_bad_options():
+    with pytest.raises(ValueError, match="tonemap must be one of"):
+        to_srgb8(np.zeros((2, 2, 3), np.float32), tonemap="filmic")
+    with pytest.raises(ValueError, match="exposure must be > 0"):
+        to_srgb8(np.zeros((2, 2, 3), np.float32), exposure=0)
