@@ -1,0 +1,17 @@
+"""Scene files (TOML): systems, colliders, objects, camera and render settings.
+
+The format is documented key by key in ``docs/scene-format.md``.
+"""
+
+from .scene import ParticleLook, RenderSettings, Scene, SceneObject, builtin_scenes, load_scene
+from .schema import SceneError
+
+__all__ = [
+    "ParticleLook",
+    "RenderSettings",
+    "Scene",
+    "SceneError",
+    "SceneObject",
+    "builtin_scenes",
+    "load_scene",
+]

@@ -1,0 +1,366 @@
+"""Scene-file tables to library objects: shapes, rates, distributions, forces, colliders...
+
+Every table with variants names its variant with ``type`` (``{ type = "disc",
+radius = 0.3 }``); each reader checks its keys and hands values to the library
+constructor, whose own range checks are reported with the key path (see ``schema.build``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import emit, forces, life
+from ..collide import colliders
+from ..emit import shapes
+from ..integrate import Integrator
+from ..life.events import KINDS
+from .schema import (
+    SceneError,
+    Table,
+    array_of,
+    boolean,
+    build,
+    color,
+    integer,
+    keyed,
+    number,
+    one_of,
+    positive,
+    string,
+    vector,
+)
+
+# --- distributions ------------------------------------------------------------------------
+
+
+def _plain_value(value, path):
+    """A number, an array of numbers, or a colour string."""
+    if isinstance(value, str):
+        return color(value, path)
+    if isinstance(value, list):
+        return tuple(number()(v, f"{path}[{i}]") for i, v in enumerate(value))
+    return number()(value, path)
+
+
+def distribution(value, path):
+    """A per-particle initial value.
+
+    ``1.5``, ``[0, 1, 0]`` or ``"#ff8800"`` (constant), ``{ uniform = [low, high] }``,
+    ``{ normal = [mean, std], low = ..., high = ... }`` or
+    ``{ gradient = [[0, "#ffffff"], [1, "#ff0000"]] }`` (chosen uniformly along the stops).
+    """
+    if not isinstance(value, dict):
+        return emit.Constant(_plain_value(value, path))
+    table = Table(value, path)
+    forms = [k for k in ("constant", "uniform", "normal", "gradient") if k in value]
+    if len(forms) != 1:
+        raise SceneError(
+            path, "must have exactly one of the keys constant, uniform, normal, gradient"
+        )
+    form = forms[0]
+    if form == "constant":
+        result = emit.Constant(table.get("constant", _plain_value))
+    elif form == "uniform":
+        low, high = table.get("uniform", array_of(_plain_value, min_length=2))[:2]
+        _pair_only(table, "uniform")
+        result = build(path, emit.Uniform, low, high)
+    elif form == "normal":
+        mean, std = table.get("normal", array_of(number(), min_length=2))[:2]
+        _pair_only(table, "normal")
+        low = table.get("low", number(), None)
+        high = table.get("high", number(), None)
+        result = build(path, emit.Normal, mean, std, low=low, high=high)
+    else:
+        stops = table.get("gradient", keyed(_plain_value))
+        result = build(path, emit.Gradient, stops)
+    table.finish()
+    return result
+
+
+def _pair_only(table: Table, key: str) -> None:
+    if len(table.data[key]) != 2:
+        raise SceneError(table.key_path(key), f"must be [a, b], got {table.data[key]!r}")
+
+
+# --- emission -----------------------------------------------------------------------------
+
+_SHAPES = {
+    "point": lambda t: shapes.Point(),
+    "sphere": lambda t: build(
+        t.path,
+        shapes.Sphere,
+        t.get("radius", positive()),
+        surface=t.get("surface", boolean, False),
+    ),
+    "box": lambda t: build(
+        t.path, shapes.Box, t.get("size", vector()), surface=t.get("surface", boolean, False)
+    ),
+    "disc": lambda t: build(
+        t.path,
+        shapes.Disc,
+        t.get("radius", positive()),
+        normal=t.get("normal", vector(), (0.0, 1.0, 0.0)),
+        inner_radius=t.get("inner_radius", number(0.0), 0.0),
+    ),
+    "cone": lambda t: build(
+        t.path,
+        shapes.Cone,
+        t.get("radius", positive()),
+        t.get("height", positive()),
+        axis=t.get("axis", vector(), (0.0, 1.0, 0.0)),
+        surface=t.get("surface", boolean, False),
+    ),
+    "line": lambda t: build(t.path, shapes.Line, t.get("start", vector()), t.get("end", vector())),
+}
+
+_DIRECTIONS = {
+    "cone": lambda t: build(
+        t.path,
+        emit.Cone,
+        axis=t.get("axis", vector(), (0.0, 1.0, 0.0)),
+        angle=t.get("angle", number(0.0, 180.0), 30.0),
+    ),
+    "isotropic": lambda t: emit.Isotropic(),
+    "shape_normal": lambda t: build(
+        t.path, emit.ShapeNormal, spread=t.get("spread", number(0.0, 180.0), 0.0)
+    ),
+    "radial": lambda t: emit.Radial(),
+}
+
+
+def _variant(table: Table, variants: dict, what: str):
+    kind = table.get("type", one_of(*variants))
+    result = variants[kind](table)
+    table.finish()
+    return result
+
+
+def shape(value, path):
+    return _variant(Table(value, path), _SHAPES, "shape")
+
+
+def direction(value, path):
+    return _variant(Table(value, path), _DIRECTIONS, "direction")
+
+
+def rate(value, path, camera):
+    """``{ type = "per_second" | "per_frame" | "burst", ..., screen_scaled = false }``."""
+    t = Table(value, path)
+    kind = t.get("type", one_of("per_second", "per_frame", "burst"))
+    if kind == "per_second":
+        result = build(path, emit.PerSecond, t.get("rate", number(0.0)))
+    elif kind == "per_frame":
+        result = build(
+            path,
+            emit.PerFrame,
+            t.get("mean", number(0.0)),
+            variance=t.get("variance", number(0.0), 0.0),
+            delta_mean=t.get("delta_mean", number(), 0.0),
+            delta_variance=t.get("delta_variance", number(), 0.0),
+            start_frame=t.get("start_frame", integer(0), 0),
+        )
+    else:
+        result = build(
+            path,
+            emit.Burst,
+            t.get("count", integer(0)),
+            at=t.get("at", number(0.0), 0.0),
+            every=t.get("every", positive(), None),
+            repeat=t.get("repeat", integer(1), None),
+        )
+    if t.get("screen_scaled", boolean, False):
+        result = build(
+            path, emit.ScreenScaled, result, camera, margin=t.get("margin", number(0.0), 0.0)
+        )
+    t.finish()
+    return result
+
+
+def _position(value, path):
+    """``[x, y, z]`` or a path ``{ times = [...], points = [[x, y, z], ...] }``."""
+    if isinstance(value, dict):
+        t = Table(value, path)
+        times = t.get("times", array_of(number(), min_length=1))
+        points = t.get("points", array_of(vector(), min_length=1))
+        t.finish()
+        return build(path, emit.Path, times, points)
+    return vector()(value, path)
+
+
+def emitter(table: Table, camera, *, template: bool = False) -> emit.Emitter:
+    """An emitter; a ``template`` (for child systems) has no rate and an optional shape."""
+    kwargs = {
+        "position": table.get("position", _position, (0.0, 0.0, 0.0)),
+        "lifetime": table.get("lifetime", distribution, 1.0),
+        "speed": table.get("speed", distribution, 1.0),
+        "direction": table.get("direction", direction, None),
+        "inherit_velocity": table.get("inherit_velocity", number(), 0.0),
+    }
+    for key in ("color", "size", "mass", "rotation"):
+        kwargs[key] = table.get(key, distribution, None)
+    the_shape = table.get("shape", shape, None)
+    the_rate = None if template else table.get("rate", lambda v, p: rate(v, p, camera))
+    table.finish()
+    return build(table.path, emit.Emitter, the_shape, the_rate, **kwargs)
+
+
+# --- forces -------------------------------------------------------------------------------
+
+_FORCES = {
+    "gravity": lambda t: build(
+        t.path, forces.Gravity, t.get("acceleration", vector(), (0.0, -9.81, 0.0))
+    ),
+    "drag": lambda t: build(
+        t.path,
+        forces.Drag,
+        t.get("coefficient", number(0.0)),
+        wind=t.get("wind", vector(), (0.0, 0.0, 0.0)),
+    ),
+    "quadratic_drag": lambda t: build(
+        t.path,
+        forces.QuadraticDrag,
+        t.get("coefficient", number(0.0)),
+        wind=t.get("wind", vector(), (0.0, 0.0, 0.0)),
+    ),
+    "wind": lambda t: build(
+        t.path,
+        forces.Wind,
+        t.get("velocity", vector()),
+        coefficient=t.get("coefficient", number(0.0), 1.0),
+    ),
+    "radial": lambda t: build(
+        t.path,
+        forces.RadialField,
+        t.get("center", vector()),
+        t.get("strength", number()),
+        softening=t.get("softening", positive(), 0.01),
+        falloff=t.get("falloff", string, "inverse_square"),
+    ),
+    "vortex": lambda t: build(
+        t.path,
+        forces.Vortex,
+        t.get("center", vector()),
+        t.get("axis", vector()),
+        t.get("strength", number()),
+        radius=t.get("radius", positive(), 1.0),
+        pull=t.get("pull", number(), 0.0),
+    ),
+    "curl_noise": lambda t: build(
+        t.path,
+        forces.CurlNoise,
+        t.get("strength", number()),
+        t.get("scale", positive()),
+        seed=t.get("seed", integer(0), 0),
+        octaves=t.get("octaves", integer(1, 8), 1),
+        time_scale=t.get("time_scale", number(), 0.0),
+    ),
+}
+
+
+def force(table: Table):
+    return _variant(table, _FORCES, "force")
+
+
+# --- colliders ----------------------------------------------------------------------------
+
+
+def _euler_rotation(value, path):
+    """Rotation matrix from ``[x, y, z]`` angles [deg], applied in the order x, y, z."""
+    ax, ay, az = (math.radians(a) for a in vector()(value, path))
+    cx, sx, cy, sy, cz, sz = (
+        math.cos(ax),
+        math.sin(ax),
+        math.cos(ay),
+        math.sin(ay),
+        math.cos(az),
+        math.sin(az),
+    )
+    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def collider(table: Table):
+    """A collider; returns ``(collider, visible, colour)`` (visible ones are also drawn)."""
+    kind = table.get("type", one_of("plane", "sphere", "box"))
+    response = {
+        "restitution": table.get("restitution", number(0.0), 0.5),
+        "friction": table.get("friction", number(0.0), 0.0),
+        "friction_model": table.get("friction_model", one_of("scale", "depth"), "scale"),
+        "response": table.get("response", one_of("bounce", "stick", "kill", "event"), "bounce"),
+        "inside": table.get("inside", boolean, False),
+    }
+    if kind == "plane":
+        result = build(
+            table.path,
+            colliders.Plane,
+            table.get("normal", vector(), (0.0, 1.0, 0.0)),
+            table.get("offset", number(), 0.0),
+            point=table.get("point", vector(), None),
+            **response,
+        )
+    elif kind == "sphere":
+        result = build(
+            table.path,
+            colliders.Sphere,
+            table.get("center", vector(), (0.0, 0.0, 0.0)),
+            table.get("radius", positive(), 1.0),
+            **response,
+        )
+    else:
+        result = build(
+            table.path,
+            colliders.Box,
+            table.get("center", vector(), (0.0, 0.0, 0.0)),
+            table.get("size", vector(), (1.0, 1.0, 1.0)),
+            rotation=table.get("rotation", _euler_rotation, None),
+            **response,
+        )
+    visible = table.get("visible", boolean, False)
+    tint = table.get("color", color, (0.6, 0.6, 0.6, 1.0))
+    table.finish()
+    return result, visible, tint
+
+
+# --- life ---------------------------------------------------------------------------------
+
+
+def _curve_value(value, path):
+    return color(value, path) if isinstance(value, str) else _plain_value(value, path)
+
+
+_MODIFIERS = {
+    "color_over_life": lambda t: build(
+        t.path,
+        life.ColorOverLife,
+        t.get("keys", keyed(_curve_value)),
+        multiply=t.get("multiply", boolean, False),
+    ),
+    "size_over_life": lambda t: build(
+        t.path,
+        life.SizeOverLife,
+        t.get("keys", keyed(_curve_value)),
+        multiply=t.get("multiply", boolean, True),
+    ),
+    "speed_over_life": lambda t: build(
+        t.path, life.SpeedOverLife, t.get("keys", keyed(_curve_value))
+    ),
+    "intensity_below": lambda t: build(
+        t.path, life.IntensityBelow, t.get("threshold", number(0.0))
+    ),
+    "alpha_below": lambda t: build(t.path, life.AlphaBelow, t.get("threshold", number(0.0))),
+    "distance_from": lambda t: build(
+        t.path, life.DistanceFrom, t.get("center", vector()), t.get("distance", positive())
+    ),
+}
+
+
+def modifier(table: Table):
+    return _variant(table, _MODIFIERS, "modifier")
+
+
+INTEGRATORS = tuple(i.value for i in Integrator)
+EVENT_KINDS = tuple(KINDS)

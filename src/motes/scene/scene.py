@@ -1,0 +1,417 @@
+"""Scenes: particle systems, shared colliders, opaque objects, camera and render settings.
+
+A scene is what a scene file describes and what ``motes run`` plays: it steps its systems
+with a fixed number of substeps per frame and renders each frame. Load one with
+:func:`load_scene` (a built-in name, a ``.toml`` path or TOML text).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import hierarchy
+from ..render.camera import Camera, Projection
+from ..system import ParticleSystem
+from . import parts
+from .schema import (
+    SceneError,
+    Table,
+    array_of,
+    boolean,
+    build,
+    color,
+    integer,
+    number,
+    one_of,
+    positive,
+    string,
+    vector,
+)
+
+BUILTIN_DIR = Path(__file__).with_name("builtin")
+
+
+@dataclass
+class ParticleLook:
+    """How one system's particles are drawn (the ``[system.render]`` table)."""
+
+    kind: str = "sprite"  # "sprite" or "point"
+    blend: str = "additive"  # "additive" or "alpha"
+    softness: float = 0.0  # [m]; 0 = hard depth test
+    shutter: float = 0.0  # [s]; > 0 draws motion-blur streaks
+    intensity: float = 1.0
+    texture: Path | None = None
+    visible: bool = True
+
+
+@dataclass
+class RenderSettings:
+    """The ``[render]`` table."""
+
+    background: tuple = ((0.0, 0.0, 0.0, 1.0), None)
+    exposure: float = 1.0
+    tonemap: str = "aces"
+    supersample: int = 2
+    lights: list = field(default_factory=list)  # (direction, colour, intensity)
+
+
+@dataclass
+class SceneObject:
+    """An opaque object to draw: ``kind`` is ground, sphere or box, ``params`` its sizes."""
+
+    kind: str
+    params: dict
+    color: tuple
+
+
+class Scene:
+    """A runnable, renderable scene. Build with :func:`load_scene`.
+
+    Attributes
+    ----------
+    systems : dict[str, ParticleSystem]
+        Every system by name, in file order.
+    roots : list[ParticleSystem]
+        Systems that are nobody's child; stepping them steps their children.
+    looks : dict[str, ParticleLook]
+    objects : list[SceneObject]
+        Opaque geometry, including visible colliders.
+    """
+
+    def __init__(
+        self,
+        *,
+        name,
+        description,
+        duration,
+        fps,
+        substeps,
+        seed,
+        camera,
+        render,
+        systems,
+        looks,
+        objects,
+        source=None,
+    ):
+        self.name = name
+        self.description = description
+        self.duration = duration
+        self.fps = fps
+        self.substeps = substeps
+        self.seed = seed
+        self.camera = camera
+        self.render_settings = render
+        self.systems = systems
+        self.looks = looks
+        self.objects = objects
+        self.source = source
+        children = {id(c) for s in systems.values() for c in s.children}
+        self.roots = [s for s in systems.values() if id(s) not in children]
+        self.frame = 0
+        self._renderer = None
+
+    @property
+    def frame_count(self) -> int:
+        """Frames in ``duration`` at ``fps`` (at least 1)."""
+        return max(1, round(self.duration * self.fps))
+
+    @property
+    def time(self) -> float:
+        """Simulated time [s] at the current frame."""
+        return self.frame / self.fps
+
+    def advance(self) -> None:
+        """Simulate one frame: ``substeps`` steps of ``1 / (fps · substeps)`` s."""
+        dt = 1.0 / (self.fps * self.substeps)
+        for _ in range(self.substeps):
+            for system in self.roots:
+                system.step(dt)
+        self.frame += 1
+
+    def counts(self) -> dict[str, int]:
+        """Live particles per system."""
+        return {name: len(s) for name, s in self.systems.items()}
+
+    def render(self, resolution=None) -> np.ndarray:
+        """The current frame as a (height, width, 3) uint8 sRGB image."""
+        from ..render.renderer import scene_renderer
+
+        if self._renderer is None or (
+            resolution and self._renderer.resolution != tuple(resolution)
+        ):
+            self._renderer = scene_renderer(self, resolution)
+        return self._renderer.render_scene(self)
+
+    def __repr__(self) -> str:
+        counts = ", ".join(f"{k}={v}" for k, v in self.counts().items())
+        return f"Scene({self.name!r}, frame {self.frame}/{self.frame_count}, {counts})"
+
+
+# --- loading ------------------------------------------------------------------------------
+
+
+def builtin_scenes() -> dict[str, str]:
+    """Built-in scene names and their one-line descriptions, sorted by name."""
+    result = {}
+    for path in sorted(BUILTIN_DIR.glob("*.toml")):
+        data = tomllib.loads(path.read_text())
+        result[path.stem] = data.get("scene", {}).get("description", "")
+    return result
+
+
+def load_scene(source, *, seed: int | None = None) -> Scene:
+    """Load a scene from a built-in name, a path to a ``.toml`` file, or TOML text.
+
+    ``seed`` overrides the file's ``scene.seed``. Mistakes raise :class:`SceneError` with
+    the key path, the value and what is allowed.
+    """
+    text, origin, base = _read_source(source)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise SceneError(origin, f"not valid TOML: {error}") from None
+    return _build_scene(Table(data, ""), origin, base, seed)
+
+
+def _read_source(source) -> tuple[str, str, Path]:
+    if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source):
+        path = Path(source)
+        if path.suffix != ".toml" and "/" not in str(source):
+            builtin = BUILTIN_DIR / f"{source}.toml"
+            if builtin.exists():
+                return builtin.read_text(), str(source), BUILTIN_DIR
+            names = ", ".join(builtin_scenes())
+            raise SceneError(
+                "", f"no built-in scene {source!r} and no such file; built-in: {names}"
+            )
+        if not path.is_file():
+            raise SceneError("", f"scene file not found: {path}")
+        return path.read_text(), str(path), path.parent
+    if isinstance(source, str):
+        return source, "<text>", Path.cwd()
+    raise TypeError(f"source must be a scene name, a path or TOML text, got {source!r}")
+
+
+def _camera(table: Table | None) -> Camera:
+    if table is None:
+        return Camera()
+    kwargs = {
+        "position": table.get("position", vector(), (0.0, 1.0, 5.0)),
+        "target": table.get("target", vector(), (0.0, 1.0, 0.0)),
+        "up": table.get("up", vector(), (0.0, 1.0, 0.0)),
+        "fov": table.get("fov", number(0.0, 180.0, low_open=True, high_open=True), 45.0),
+        "resolution": table.get("resolution", array_of(integer(1, 16384)), [640, 360]),
+        "near": table.get("near", positive(), 0.05),
+        "far": table.get("far", positive(), 1000.0),
+        "projection": table.get(
+            "projection", one_of(*(p.value for p in Projection)), "perspective"
+        ),
+        "height": table.get("height", positive(), 2.0),
+    }
+    table.finish()
+    return build(table.path, Camera, **kwargs)
+
+
+def _background(value, path):
+    """A colour, or ``[top, bottom]`` for a vertical gradient."""
+    if (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(isinstance(v, (str, list)) for v in value)
+    ):
+        return color(value[0], f"{path}[0]"), color(value[1], f"{path}[1]")
+    return color(value, path), None
+
+
+def _render_settings(table: Table | None) -> RenderSettings:
+    settings = RenderSettings()
+    if table is None:
+        return settings
+    settings.background = table.get("background", _background, settings.background)
+    settings.exposure = table.get("exposure", positive(), 1.0)
+    settings.tonemap = table.get("tonemap", one_of("clamp", "reinhard", "aces"), "aces")
+    settings.supersample = table.get("supersample", integer(1, 4), 2)
+    for light in table.tables("light"):
+        settings.lights.append(
+            (
+                light.get("direction", vector()),
+                light.get("color", color, (1.0, 1.0, 1.0, 1.0)),
+                light.get("intensity", number(0.0), 1.0),
+            )
+        )
+        light.finish()
+    table.finish()
+    return settings
+
+
+def _look(table: Table | None, base: Path) -> ParticleLook:
+    look = ParticleLook()
+    if table is None:
+        return look
+    look.kind = table.get("kind", one_of("sprite", "point"), "sprite")
+    look.blend = table.get("blend", one_of("additive", "alpha"), "additive")
+    look.softness = table.get("softness", number(0.0), 0.0)
+    look.shutter = table.get("shutter", number(0.0, 1.0), 0.0)
+    look.intensity = table.get("intensity", number(0.0), 1.0)
+    texture = table.get("texture", string, None)
+    if texture is not None:
+        look.texture = (base / texture).resolve()
+        if not look.texture.is_file():
+            raise SceneError(table.key_path("texture"), f"image file not found: {look.texture}")
+    look.visible = table.get("visible", boolean, True)
+    table.finish()
+    return look
+
+
+_OBJECT_KEYS = {
+    "ground": {
+        "height": number(),
+        "size": positive(),
+        "checker": color,
+        "checker_size": positive(),
+    },
+    "sphere": {"center": vector(), "radius": positive()},
+    "box": {"center": vector(), "size": vector(), "rotation": vector()},
+}
+
+
+def _object(table: Table) -> SceneObject:
+    kind = table.get("type", one_of(*_OBJECT_KEYS))
+    params = {}
+    for key, reader in _OBJECT_KEYS[kind].items():
+        if table.has(key):
+            params[key] = table.get(key, reader)
+    tint = table.get("color", color, (0.6, 0.6, 0.6, 1.0))
+    table.finish()
+    return SceneObject(kind, params, tint)
+
+
+_COLLIDER_OBJECTS = {"plane": "ground", "sphere": "sphere", "box": "box"}
+
+
+def _collider_object(collider, tint) -> SceneObject:
+    """The drawable twin of a visible collider."""
+    kind = type(collider).__name__.lower()
+    if kind == "plane":
+        normal = np.asarray(collider.normal, dtype=float)
+        if not np.allclose(normal / np.linalg.norm(normal), (0, 1, 0)):
+            raise SceneError("collider", "only horizontal planes (normal [0, 1, 0]) can be visible")
+        return SceneObject("ground", {"height": float(collider.offset)}, tint)
+    if kind == "sphere":
+        return SceneObject(
+            "sphere", {"center": tuple(collider.center), "radius": float(collider.radius)}, tint
+        )
+    return SceneObject(
+        "box",
+        {
+            "center": tuple(collider.center),
+            "size": tuple(collider.size),
+            "matrix": np.asarray(collider.rotation),
+        },
+        tint,
+    )
+
+
+def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
+    head = root.table("scene", optional=True) or Table({}, "scene")
+    name = head.get("name", string, Path(origin).stem)
+    description = head.get("description", string, "")
+    duration = head.get("duration", positive(), 4.0)
+    fps = head.get("fps", number(1.0, 1000.0), 30.0)
+    substeps = head.get("substeps", integer(1, 1000), 1)
+    seed = head.get("seed", integer(0), 0)
+    if seed_override is not None:
+        seed = integer(0)(seed_override, "seed")
+    head.finish()
+    camera = _camera(root.table("camera", optional=True))
+    render = _render_settings(root.table("render", optional=True))
+
+    objects = [_object(t) for t in root.tables("object")]
+    shared = []
+    for t in root.tables("collider"):
+        c, visible, tint = parts.collider(t)
+        shared.append(c)
+        if visible:
+            objects.append(_collider_object(c, tint))
+
+    system_tables = root.tables("system")
+    root.finish()
+    if not system_tables:
+        raise SceneError("system", "a scene needs at least one [[system]]")
+    seeds = np.random.SeedSequence(seed).spawn(len(system_tables))
+    systems: dict[str, ParticleSystem] = {}
+    looks: dict[str, ParticleLook] = {}
+    pending_children = []
+    for t, seq in zip(system_tables, seeds, strict=True):
+        system_name = t.get("name", string)
+        if system_name in systems:
+            raise SceneError(t.key_path("name"), f"duplicate system name {system_name!r}")
+        system = build(
+            t.path,
+            ParticleSystem,
+            t.get("capacity", integer(1, 100_000_000), 100_000),
+            seed=int(seq.generate_state(1)[0]),
+            integrator=t.get("integrator", one_of(*parts.INTEGRATORS), "semi_implicit_euler"),
+            verlet_damping=t.get("verlet_damping", number(0.0, 1.0), 0.0),
+            compaction=t.get("compaction", one_of("stable", "swap"), "stable"),
+        )
+        for e in t.tables("emitter"):
+            system.add(parts.emitter(e, camera))
+        for f in t.tables("force"):
+            system.add(parts.force(f))
+        for m in t.tables("modifier"):
+            system.add(parts.modifier(m))
+        for c in t.tables("collider"):
+            collider, visible, tint = parts.collider(c)
+            system.add(collider)
+            if visible:
+                objects.append(_collider_object(collider, tint))
+        if t.get("shared_colliders", boolean, True):
+            for c in shared:
+                system.add(c)
+        pending_children.extend((system, c) for c in t.tables("child"))
+        looks[system_name] = _look(t.table("render", optional=True), base)
+        t.finish()
+        systems[system_name] = system
+
+    for parent, c in pending_children:
+        child_name = c.get("system", one_of(*systems))
+        child = systems[child_name]
+        template = c.table("emitter", optional=True) or Table({}, c.key_path("emitter"))
+        link = build(
+            c.path,
+            hierarchy.SpawnOnEvent,
+            child,
+            parts.emitter(template, camera, template=True),
+            on=c.get("on", one_of(*parts.EVENT_KINDS), "death"),
+            count=c.get("count", _count, 1),
+            inherit=tuple(c.get("inherit", array_of(string), [])),
+        )
+        c.finish()
+        parent.add(link)
+
+    return Scene(
+        name=name,
+        description=description,
+        duration=duration,
+        fps=fps,
+        substeps=substeps,
+        seed=seed,
+        camera=camera,
+        render=render,
+        systems=systems,
+        looks=looks,
+        objects=objects,
+        source=origin,
+    )
+
+
+def _count(value, path):
+    if isinstance(value, int) and not isinstance(value, bool):
+        return integer(0)(value, path)
+    return parts.distribution(value, path)

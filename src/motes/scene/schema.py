@@ -1,0 +1,217 @@
+"""Reading validated values out of parsed TOML, with errors that name the key path.
+
+Every value read from a scene file goes through a :class:`Table`, which records which
+keys were asked for. Reading a table ends with :meth:`Table.finish`, which rejects any key
+nobody asked for (a typo must not be silently ignored) and lists the allowed ones.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+from ..color import parse_color
+
+
+class SceneError(ValueError):
+    """A mistake in a scene: ``path`` is the key path (``system[0].emitter[1].rate``)."""
+
+    def __init__(self, path: str, message: str):
+        self.path = path
+        self.message = message
+        super().__init__(f"{path}: {message}" if path else message)
+
+
+_REQUIRED = object()
+
+#: A reader converts one raw TOML value at ``path`` or raises SceneError.
+Reader = Callable[[Any, str], Any]
+
+
+def _kind(value) -> str:
+    return {
+        bool: "boolean",
+        int: "integer",
+        float: "number",
+        str: "string",
+        list: "array",
+        dict: "table",
+    }.get(type(value), type(value).__name__)
+
+
+class Table:
+    """A TOML table being read; see the module docstring."""
+
+    def __init__(self, data, path: str):
+        if not isinstance(data, dict):
+            raise SceneError(path, f"must be a table, got {_kind(data)} {data!r}")
+        self.data = data
+        self.path = path
+        self.allowed: list[str] = []
+
+    def key_path(self, key: str) -> str:
+        return f"{self.path}.{key}" if self.path else key
+
+    def has(self, key: str) -> bool:
+        if key not in self.allowed:
+            self.allowed.append(key)
+        return key in self.data
+
+    def get(self, key: str, reader: Reader, default=_REQUIRED):
+        """The value of ``key`` converted by ``reader``; ``default`` when absent."""
+        if not self.has(key):
+            if default is _REQUIRED:
+                raise SceneError(self.key_path(key), "is required")
+            return default
+        return reader(self.data[key], self.key_path(key))
+
+    def table(self, key: str, *, optional: bool = False) -> Table | None:
+        if not self.has(key):
+            if optional:
+                return None
+            raise SceneError(self.key_path(key), "is required")
+        return Table(self.data[key], self.key_path(key))
+
+    def tables(self, key: str) -> list[Table]:
+        """An array of tables (``[[key]]``); empty when absent."""
+        if not self.has(key):
+            return []
+        items = self.data[key]
+        if isinstance(items, dict):
+            items = [items]
+        if not isinstance(items, list):
+            raise SceneError(self.key_path(key), f"must be an array of tables, got {_kind(items)}")
+        return [Table(item, f"{self.key_path(key)}[{i}]") for i, item in enumerate(items)]
+
+    def finish(self) -> None:
+        """Reject keys that were never asked for."""
+        unknown = [k for k in self.data if k not in self.allowed]
+        if unknown:
+            allowed = ", ".join(self.allowed) if self.allowed else "none"
+            raise SceneError(self.key_path(unknown[0]), f"unknown key; allowed here: {allowed}")
+
+
+def build(path: str, factory: Callable, *args, **kwargs):
+    """Call a library constructor, re-raising its validation errors with the key path.
+
+    Constructors name the parameter first in their messages (``radius must be > 0``);
+    when that parameter is a key of the table, the path points at it.
+    """
+    try:
+        return factory(*args, **kwargs)
+    except (ValueError, TypeError) as error:
+        message = str(error)
+        first = message.split(" ", 1)[0]
+        if first in kwargs:
+            raise SceneError(f"{path}.{first}", message) from None
+        raise SceneError(path, message) from None
+
+
+# --- scalar readers -----------------------------------------------------------------------
+
+
+def number(
+    low: float | None = None, high: float | None = None, *, low_open=False, high_open=False
+) -> Reader:
+    """A finite number (integers accepted) in the given range."""
+
+    def read(value, path):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise SceneError(path, f"must be a number, got {_kind(value)} {value!r}")
+        x = float(value)
+        if not math.isfinite(x):
+            raise SceneError(path, f"must be finite, got {x}")
+        if low is not None and (x < low or (low_open and x == low)):
+            raise SceneError(path, f"must be {'>' if low_open else '>='} {low}, got {value!r}")
+        if high is not None and (x > high or (high_open and x == high)):
+            raise SceneError(path, f"must be {'<' if high_open else '<='} {high}, got {value!r}")
+        return x
+
+    return read
+
+
+def positive() -> Reader:
+    return number(0.0, low_open=True)
+
+
+def integer(low: int | None = None, high: int | None = None) -> Reader:
+    def read(value, path):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise SceneError(path, f"must be an integer, got {_kind(value)} {value!r}")
+        if low is not None and value < low:
+            raise SceneError(path, f"must be >= {low}, got {value}")
+        if high is not None and value > high:
+            raise SceneError(path, f"must be <= {high}, got {value}")
+        return value
+
+    return read
+
+
+def boolean(value, path):
+    if not isinstance(value, bool):
+        raise SceneError(path, f"must be true or false, got {_kind(value)} {value!r}")
+    return value
+
+
+def string(value, path):
+    if not isinstance(value, str):
+        raise SceneError(path, f"must be a string, got {_kind(value)} {value!r}")
+    return value
+
+
+def one_of(*choices: str) -> Reader:
+    def read(value, path):
+        if value not in choices:
+            allowed = ", ".join(repr(c) for c in choices)
+            raise SceneError(path, f"must be one of {allowed}, got {value!r}")
+        return value
+
+    return read
+
+
+def vector(size: int = 3) -> Reader:
+    """An array of ``size`` numbers, as a tuple of floats."""
+
+    def read(value, path):
+        if not isinstance(value, list) or len(value) != size:
+            raise SceneError(path, f"must be an array of {size} numbers, got {value!r}")
+        return tuple(number()(v, f"{path}[{i}]") for i, v in enumerate(value))
+
+    return read
+
+
+def color(value, path):
+    """A colour: ``"#rrggbb[aa]"`` (sRGB) or an array of 3 or 4 linear values."""
+    if isinstance(value, str) or (
+        isinstance(value, list)
+        and len(value) in (3, 4)
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+    ):
+        try:
+            return tuple(parse_color(value))
+        except ValueError as error:
+            raise SceneError(path, str(error)) from None
+    raise SceneError(path, f'must be a colour like "#ff8800" or [r, g, b(, a)], got {value!r}')
+
+
+def array_of(reader: Reader, *, min_length: int = 0) -> Reader:
+    def read(value, path):
+        if not isinstance(value, list):
+            raise SceneError(path, f"must be an array, got {_kind(value)} {value!r}")
+        if len(value) < min_length:
+            raise SceneError(path, f"needs at least {min_length} entries, got {len(value)}")
+        return [reader(v, f"{path}[{i}]") for i, v in enumerate(value)]
+
+    return read
+
+
+def keyed(value_reader: Reader) -> Reader:
+    """Curve keys: an array of ``[t, value]`` pairs with t in [0, 1]."""
+
+    def read_key(value, path):
+        if not isinstance(value, list) or len(value) != 2:
+            raise SceneError(path, f"must be a [time, value] pair, got {value!r}")
+        return number(0.0, 1.0)(value[0], f"{path}[0]"), value_reader(value[1], f"{path}[1]")
+
+    return array_of(read_key, min_length=1)

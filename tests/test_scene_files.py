@@ -1,0 +1,150 @@
+"""Scene files: loading, building the engine objects, and the validation messages."""
+
+import numpy as np
+import pytest
+
+import motes as mo
+from motes.scene import SceneError, builtin_scenes, load_scene
+
+MINIMAL = """
+[scene]
+duration = 1.0
+fps = 10
+substeps = 2
+seed = 3
+
+[[system]]
+name = "a"
+capacity = 500
+  [[system.emitter]]
+  shape = { type = "sphere", radius = 0.2 }
+  rate = { type = "per_second", rate = 300 }
+  speed = { uniform = [1.0, 2.0] }
+  lifetime = 0.5
+"""
+
+
+def test_a_minimal_scene_builds_and_steps_with_substeps():
+    scene = load_scene(MINIMAL)
+    assert scene.frame_count == 10
+    system = scene.systems["a"]
+    scene.advance()
+    assert system.time == pytest.approx(0.1)  # two substeps of 0.05 s
+    assert 15 <= len(system) <= 45  # ~30 births in 0.1 s
+    speed = np.linalg.norm(system["velocity"], axis=1)
+    assert ((speed >= 1.0) & (speed < 2.0 + 1e-6)).all()
+
+
+def test_the_scene_seed_makes_runs_identical_and_can_be_overridden():
+    def run(seed=None):
+        scene = load_scene(MINIMAL, seed=seed)
+        for _ in range(5):
+            scene.advance()
+        return scene.systems["a"]["position"].copy()
+
+    np.testing.assert_array_equal(run(), run())
+    assert not np.array_equal(run(), run(seed=4))
+
+
+def test_every_builtin_scene_loads():
+    names = builtin_scenes()
+    expected = {"fire", "smoke", "fireworks", "rain", "explosion", "snow", "waterfall", "lod"}
+    assert expected <= set(names)
+    for name, description in names.items():
+        assert description, f"{name} has no description"
+        scene = load_scene(name)
+        assert scene.systems
+
+
+def test_child_links_and_visible_colliders_are_built():
+    scene = load_scene("rain")
+    drops, splashes = scene.systems["drops"], scene.systems["splashes"]
+    assert drops.children == [splashes]
+    assert scene.roots == [drops]
+    assert [o.kind for o in scene.objects] == ["ground"]
+
+
+def scene_with(extra: str, system_extra: str = "") -> str:
+    return f'{extra}\n[[system]]\nname = "a"\n{system_extra}\n'
+
+
+@pytest.mark.parametrize(
+    ("text", "path", "message"),
+    [
+        # unknown keys, at each level
+        ("[scene]\ndurashun = 2\n" + scene_with(""), "scene.durashun", "unknown key; allowed"),
+        (scene_with("", "colour = 1"), "system[0].colour", "unknown key"),
+        (
+            scene_with("", '[[system.emitter]]\nrate = { type = "per_second", rate = 1, x = 2 }'),
+            "system[0].emitter[0].rate.x",
+            "unknown key",
+        ),
+        # wrong types
+        ('[scene]\nduration = "long"\n' + scene_with(""), "scene.duration", "must be a number"),
+        (scene_with("", "capacity = 1.5"), "system[0].capacity", "must be an integer"),
+        (scene_with("[camera]\nposition = [1, 2]"), "camera.position", "array of 3 numbers"),
+        (
+            scene_with("", '[[system.emitter]]\ncolor = "#12345"'),
+            "system[0].emitter[0].color",
+            "#rrggbb",
+        ),
+        # out of range
+        ("[scene]\nfps = 0\n" + scene_with(""), "scene.fps", "must be >= 1"),
+        (scene_with("[camera]\nfov = 200"), "camera.fov", "must be < 180"),
+        (
+            scene_with("", '[[system.emitter]]\nshape = { type = "sphere", radius = -1 }'),
+            "system[0].emitter[0].shape.radius",
+            "must be > 0",
+        ),
+        (
+            scene_with("", '[[system.force]]\ntype = "curl_noise"\nstrength = 1\nscale = 0'),
+            "system[0].force[0].scale",
+            "must be > 0",
+        ),
+        # bad choices and references
+        (
+            scene_with("", '[[system.force]]\ntype = "antigravity"'),
+            "system[0].force[0].type",
+            "must be one of 'gravity'",
+        ),
+        (
+            scene_with("", '[[system.child]]\nsystem = "nobody"'),
+            "system[0].child[0].system",
+            "must be one of 'a'",
+        ),
+        (scene_with("", 'integrator = "leapfrog"'), "system[0].integrator", "must be one of"),
+        # constructor-level checks come back with the key path
+        (
+            scene_with("", "[[system.emitter]]\nspeed = { uniform = [2, 1] }"),
+            "system[0].emitter[0].speed",
+            "high >= low",
+        ),
+        (scene_with("[camera]\nnear = 2\nfar = 1"), "camera.far", "far must be > near"),
+        # structure
+        ("[scene]\nduration = 1\n", "system", r"at least one \[\[system\]\]"),
+        (scene_with("", "") + '[[system]]\nname = "a"\n', "system[1].name", "duplicate"),
+    ],
+)
+def test_mistakes_name_the_key_path_value_and_what_is_allowed(text, path, message):
+    with pytest.raises(SceneError, match=message) as info:
+        load_scene(text)
+    assert info.value.path == path
+
+
+def test_syntax_errors_and_missing_files_are_scene_errors():
+    with pytest.raises(SceneError, match="not valid TOML"):
+        load_scene("[scene\nduration = 1\n")
+    with pytest.raises(SceneError, match="scene file not found"):
+        load_scene("does/not/exist.toml")
+    with pytest.raises(SceneError, match=r"no built-in scene 'campfire'.*built-in: "):
+        load_scene("campfire")
+
+
+def test_screen_scaled_rates_use_the_scene_camera():
+    scene = load_scene("lod")
+    near, far = scene.systems["near"], scene.systems["far"]
+    for _ in range(15):
+        scene.advance()
+    assert isinstance(near.emitters[0].rate, mo.ScreenScaled)
+    assert near.emitters[0].rate.camera is scene.camera
+    assert len(near) > 10 * len(far) > 0
