@@ -28,7 +28,6 @@ from .schema import (
     number,
     one_of,
     positive,
-    string,
     vector,
 )
 
@@ -236,7 +235,7 @@ _FORCES = {
         t.get("center", vector()),
         t.get("strength", number()),
         softening=t.get("softening", positive(), 0.01),
-        falloff=t.get("falloff", string, "inverse_square"),
+        falloff=t.get("falloff", one_of("inverse_square", "linear"), "inverse_square"),
     ),
     "vortex": lambda t: build(
         t.path,
