@@ -9,8 +9,7 @@
 True
 """
 
-from . import colliders, shapes
-from .render.camera import Camera, Projection
+from . import colliders, io, render, scene, shapes
 from .collide import Friction, Response
 from .emit import (
     Burst,
@@ -60,6 +59,11 @@ from .life import (
     SpeedOverLife,
 )
 from .particles import Attribute, ParticleStore
+from .render.background import Background
+from .render.camera import Camera, Projection
+from .render.renderer import Renderer
+from .render.sprites import SpriteStyle
+from .scene import Scene, SceneError, load_scene
 from .system import ParticleSystem
 
 __version__ = "0.1.0"
@@ -67,9 +71,10 @@ __version__ = "0.1.0"
 __all__ = [
     "AlphaBelow",
     "Attribute",
+    "Background",
     "Burst",
-    "Camera",
     "CallbackForce",
+    "Camera",
     "ColorOverLife",
     "Cone",
     "Constant",
@@ -96,23 +101,31 @@ __all__ = [
     "ParticleStore",
     "ParticleSystem",
     "Path",
-    "Projection",
     "PerFrame",
     "PerSecond",
+    "Projection",
     "QuadraticDrag",
     "Radial",
     "RadialField",
     "Rate",
+    "Renderer",
     "Response",
+    "Scene",
+    "SceneError",
     "ScreenScaled",
     "ShapeNormal",
     "SizeOverLife",
     "SpawnOnEvent",
     "SpeedOverLife",
     "Springs",
+    "SpriteStyle",
     "Uniform",
     "Vortex",
     "Wind",
     "colliders",
+    "io",
+    "load_scene",
+    "render",
+    "scene",
     "shapes",
 ]

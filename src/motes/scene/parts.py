@@ -265,7 +265,7 @@ def force(table: Table):
 # --- colliders ----------------------------------------------------------------------------
 
 
-def _euler_rotation(value, path):
+def euler_rotation(value, path):
     """Rotation matrix from ``[x, y, z]`` angles [deg], applied in the order x, y, z."""
     ax, ay, az = (math.radians(a) for a in vector()(value, path))
     cx, sx, cy, sy, cz, sz = (
@@ -315,7 +315,7 @@ def collider(table: Table):
             colliders.Box,
             table.get("center", vector(), (0.0, 0.0, 0.0)),
             table.get("size", vector(), (1.0, 1.0, 1.0)),
-            rotation=table.get("rotation", _euler_rotation, None),
+            rotation=table.get("rotation", euler_rotation, None),
             **response,
         )
     visible = table.get("visible", boolean, False)

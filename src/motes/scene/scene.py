@@ -139,12 +139,12 @@ class Scene:
 
     def render(self, resolution=None) -> np.ndarray:
         """The current frame as a (height, width, 3) uint8 sRGB image."""
-        from ..render.renderer import scene_renderer
+        from .drawing import SceneRenderer
 
         if self._renderer is None or (
             resolution and self._renderer.resolution != tuple(resolution)
         ):
-            self._renderer = scene_renderer(self, resolution)
+            self._renderer = SceneRenderer(self, resolution)
         return self._renderer.render_scene(self)
 
     def __repr__(self) -> str:

@@ -1,0 +1,399 @@
+"""Particle rasteriser benchmarks: 1M additive sprites, 100k depth-sorted alpha sprites.
+
+Run from the repository root::
+
+    PYTHONPATH=src python -m benchmarks.render           # full sizes, about a minute
+    PYTHONPATH=src python -m benchmarks.render --quick   # shrunk sizes, seconds
+
+It prints a table, then one line of JSON with the figures. Every figure is a ratio
+against a baseline measured in the same run:
+
+- **additive**: 1,000,000 smooth sprites of about 3 px across (radius 1.25-1.9 px) in a
+  1280 × 720 frame, drawn by :class:`motes.render.sprites.SpriteRasterizer`, against
+  :func:`numpy_additive`: projection in NumPy and ``np.add.at`` splatting of the same
+  footprint (each sprite's 4 × 4 pixel window, the smooth profile normalised to its
+  energy, the depth test), which produces the same image;
+- **alpha**: 100,000 sprites of about 6 px across (they overlap about three deep) drawn
+  back to front with alpha-over, against :func:`numpy_alpha`, a per-particle NumPy loop
+  (sort, then one vectorised composite of each sprite's pixel box) timed on a subset and
+  scaled by the particle count;
+- **metaballs**: ``benchmarks/metaballs_case.py``'s case when that module is present.
+
+Timings are the best of several calls after warm-up calls (the first call of a kernel
+loads or compiles it), with the median beside it. The cores other processes kept busy
+are reported too: on a small shared machine they inflate parallel timings.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import inspect
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from motes.render.camera import Camera
+from motes.render.frame import Frame
+from motes.render.sprites import SpriteRasterizer, SpriteStyle
+
+from ._common import OtherLoad, Timing, machine, table, time_calls
+
+WIDTH, HEIGHT = 1280, 720
+ADDITIVE_KEY = "additive_1m"
+ALPHA_KEY = "alpha_100k"
+
+
+@dataclass(frozen=True)
+class Sizes:
+    """Problem sizes and repetitions of one run."""
+
+    additive: int
+    alpha: int
+    alpha_numpy_subset: int  # particles the NumPy alpha loop is timed on
+    repeat: int
+    numpy_repeat: int
+    metaballs: dict  # keyword arguments of metaballs_case.run
+
+    @staticmethod
+    def full() -> Sizes:
+        return Sizes(1_000_000, 100_000, 2_000, 10, 2, {})
+
+    @staticmethod
+    def quick() -> Sizes:
+        return Sizes(20_000, 5_000, 500, 3, 1, {"n": 5_000, "grid": 48, "repeats": 1})
+
+
+# -- scenes -----------------------------------------------------------------------------
+def camera() -> Camera:
+    """A 1280 × 720 camera 10 m from the origin, 45° vertical field of view."""
+    return Camera((0.0, 0.0, 10.0), (0.0, 0.0, 0.0), resolution=(WIDTH, HEIGHT))
+
+
+def sprite_cloud(n: int, diameter_px: float, *, seed: int = 0):
+    """``n`` float32 sprites filling the view, ``diameter_px`` across at 10 m.
+
+    Positions fill a 12 × 7 × 4 m box around the origin (depths 8-12 m, so the sprites
+    are 0.83-1.25 × ``diameter_px`` across), stored as ``(3, n)`` rows viewed as
+    ``(n, 3)``, as a particle store keeps them. Colours are random linear RGBA.
+    """
+    rng = np.random.default_rng(seed)
+    rows = np.empty((3, n), np.float32)
+    rows[0] = rng.uniform(-6.0, 6.0, n)
+    rows[1] = rng.uniform(-3.5, 3.5, n)
+    rows[2] = rng.uniform(-2.0, 2.0, n)
+    colors = rng.uniform(0.05, 1.0, (n, 4)).astype(np.float32)
+    radius = 0.5 * diameter_px * 10.0 / camera().scale  # [m]
+    return rows.T, colors, np.full(n, radius, np.float32)
+
+
+# -- NumPy baselines --------------------------------------------------------------------
+def numpy_project(cam: Camera, positions: np.ndarray, radii: np.ndarray):
+    """Screen x, y [px], depth [m] and pixel radius of particles, in NumPy (float32).
+
+    Projected in float64 and rounded, as motes does: float32 screen coordinates near
+    1280 px are only good to 1e-4 px.
+    """
+    view = cam.to_view(positions)
+    depth = view[:, 2]
+    factor = cam.scale / depth
+    sx = 0.5 * cam.width + factor * view[:, 0]
+    sy = 0.5 * cam.height_px - factor * view[:, 1]
+    f32 = np.float32
+    return sx.astype(f32), sy.astype(f32), depth.astype(f32), (radii * factor).astype(f32)
+
+
+def numpy_additive(frame: Frame, cam: Camera, positions, colors, radii) -> None:
+    """Additive smooth sprites of radius <= 2 px, projected and splatted in NumPy.
+
+    The footprint motes draws for such sprites: the 4 × 4 window of pixels starting at
+    the first column and row within reach, weights ``(1 - d²/R_f²)²`` with ``R_f =
+    max(R, 1 px)``, normalised so that each sprite deposits ``rgb · a · πR²/3``, and the
+    depth test against ``frame.depth``. The 16 fragments of every sprite are added with
+    ``np.add.at`` (unbuffered, so overlapping sprites accumulate).
+    """
+    sx, sy, depth, r = numpy_project(cam, positions, radii)
+    keep = (depth >= cam.near) & (depth <= cam.far)
+    sx, sy, depth, r, colors = sx[keep], sy[keep], depth[keep], r[keep], colors[keep]
+    rf = np.maximum(r, np.float32(1.0))
+    if rf.max(initial=0.0) > 2.0:
+        raise ValueError("numpy_additive draws sprites of radius <= 2 px only")
+    col0 = np.floor(sx - rf - 0.5).astype(np.int64) + 1
+    row0 = np.floor(sy - rf - 0.5).astype(np.int64) + 1
+    offsets = np.arange(4)
+    cols = col0[:, None, None] + offsets[None, None, :]  # (n, 1, 4)
+    rows = row0[:, None, None] + offsets[None, :, None]  # (n, 4, 1)
+    dx = cols + np.float32(0.5) - sx[:, None, None]
+    dy = rows + np.float32(0.5) - sy[:, None, None]
+    w = np.maximum(1 - (dx * dx + dy * dy) / (rf * rf)[:, None, None], 0) ** 2
+    energy = np.float32(np.pi / 3) * r * r
+    w *= (energy / w.sum(axis=(1, 2)))[:, None, None]
+    rows, cols = np.broadcast_arrays(rows, cols)
+    inside = (rows >= 0) & (rows < frame.height) & (cols >= 0) & (cols < frame.width)
+    pixel = np.where(inside, rows * frame.width + cols, 0)
+    w = np.where(inside & (depth[:, None, None] < frame.depth.reshape(-1)[pixel]), w, 0)
+    target = frame.color.reshape(-1, 3)
+    premultiplied = colors[:, :3] * colors[:, 3:]
+    for c in range(3):
+        np.add.at(target[:, c], pixel.ravel(), (w * premultiplied[:, c, None, None]).ravel())
+
+
+def numpy_alpha(frame: Frame, cam: Camera, positions, colors, radii) -> None:
+    """Alpha-over smooth sprites in NumPy: sort back to front, then one composite each.
+
+    Each sprite's pixel box is composited with array arithmetic (``c = rgb · a + c ·
+    (1 - a)``, ``a = alpha · (1 - d²/R²)²``, unit peak, no normalisation): what a NumPy
+    user would write; the loop over sprites is in Python because the composite is
+    order-dependent.
+    """
+    sx, sy, depth, r = numpy_project(cam, positions, radii)
+    rf = np.maximum(r, np.float32(1.0))
+    for i in np.argsort(-depth, kind="stable"):
+        if not cam.near <= depth[i] <= cam.far:
+            continue
+        c0 = max(int(np.floor(sx[i] - rf[i] - 0.5)) + 1, 0)
+        c1 = min(int(np.ceil(sx[i] + rf[i] - 0.5)) - 1, frame.width - 1)
+        r0 = max(int(np.floor(sy[i] - rf[i] - 0.5)) + 1, 0)
+        r1 = min(int(np.ceil(sy[i] + rf[i] - 0.5)) - 1, frame.height - 1)
+        if c1 < c0 or r1 < r0:
+            continue
+        dx = np.arange(c0, c1 + 1) + 0.5 - sx[i]
+        dy = np.arange(r0, r1 + 1)[:, None] + 0.5 - sy[i]
+        a = colors[i, 3] * np.maximum(1 - (dx * dx + dy * dy) / rf[i] ** 2, 0) ** 2
+        a = np.where(depth[i] < frame.depth[r0 : r1 + 1, c0 : c1 + 1], a, 0)[..., None]
+        box = frame.color[r0 : r1 + 1, c0 : c1 + 1]
+        box[:] = colors[i, :3] * a + box * (1 - a)
+
+
+# -- cases ------------------------------------------------------------------------------
+def bench_additive(sizes: Sizes) -> dict:
+    """1M additive 3 px sprites: motes (all threads and one), NumPy."""
+    cam = camera()
+    positions, colors, radii = sprite_cloud(sizes.additive, 3.0)
+    frame = Frame(WIDTH, HEIGHT)
+    rasterizer = SpriteRasterizer(SpriteStyle(blend="additive"))
+    drawn = rasterizer.draw(frame, cam, positions, colors, radii)
+    timing = time_calls(
+        lambda: rasterizer.draw(frame, cam, positions, colors, radii), repeat=sizes.repeat
+    )
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        one = time_calls(
+            lambda: rasterizer.draw(frame, cam, positions, colors, radii),
+            repeat=max(2, sizes.repeat // 2),
+        )
+    finally:
+        numba.set_num_threads(threads)
+    baseline = Frame(WIDTH, HEIGHT)
+    numpy = time_calls(
+        lambda: numpy_additive(baseline, cam, positions, colors, radii),
+        repeat=sizes.numpy_repeat,
+        warmup=0,
+    )
+    r = numpy_project(cam, positions, radii)[3]
+    return {
+        "timing": timing,
+        "one_thread": one,
+        "numpy": numpy,
+        "speedup_vs_numpy": numpy.best / timing.best,
+        "drawn": drawn,
+        "diameter_px": (float(2 * r.min()), float(2 * r.mean()), float(2 * r.max())),
+    }
+
+
+def bench_alpha(sizes: Sizes) -> dict:
+    """100k alpha-over 6 px sprites: motes; the NumPy loop on a subset, scaled."""
+    cam = camera()
+    positions, colors, radii = sprite_cloud(sizes.alpha, 6.0, seed=1)
+    frame = Frame(WIDTH, HEIGHT)
+    rasterizer = SpriteRasterizer(SpriteStyle(blend="alpha"))
+    drawn = rasterizer.draw(frame, cam, positions, colors, radii)
+    timing = time_calls(
+        lambda: rasterizer.draw(frame, cam, positions, colors, radii), repeat=sizes.repeat
+    )
+    subset = slice(0, sizes.alpha_numpy_subset)
+    baseline = Frame(WIDTH, HEIGHT)
+    numpy = time_calls(
+        lambda: numpy_alpha(baseline, cam, positions[subset], colors[subset], radii[subset]),
+        repeat=sizes.numpy_repeat,
+        warmup=0,
+    )
+    scale = sizes.alpha / sizes.alpha_numpy_subset
+    numpy = Timing(numpy.best * scale, numpy.median * scale)
+    r = numpy_project(cam, positions, radii)[3]
+    coverage = float(np.sum(np.pi * np.maximum(r, 1.0) ** 2) / (WIDTH * HEIGHT))
+    return {
+        "timing": timing,
+        "numpy": numpy,
+        "speedup_vs_numpy": numpy.best / timing.best,
+        "drawn": drawn,
+        "depth_complexity": coverage,
+        "diameter_px": float(2 * r.mean()),
+    }
+
+
+def bench_metaballs(sizes: Sizes, quick: bool) -> dict:
+    """``benchmarks.metaballs_case.run`` when that module exists; {} otherwise.
+
+    Its keys keep their full-size names in ``--quick`` runs (like the other keys), and
+    unprefixed keys get a ``metaballs_`` prefix.
+    """
+    try:
+        from . import metaballs_case
+    except ImportError:
+        return {}
+    parameters = inspect.signature(metaballs_case.run).parameters
+    options = {k: v for k, v in sizes.metaballs.items() if k in parameters} if quick else {}
+    result = metaballs_case.run(**options)
+    measured = options.get("n", parameters["n"].default if "n" in parameters else 50_000)
+    token = f"{measured // 1000}k" if measured >= 1000 else str(measured)
+    renamed = {}
+    for key, value in result.items():
+        key = key.replace(f"metaballs_{token}_", "metaballs_50k_")
+        renamed[key if key.startswith("metaballs_") else f"metaballs_{key}"] = value
+    renamed["metaballs_particles"] = measured
+    return renamed
+
+
+# -- report -----------------------------------------------------------------------------
+def _ms(timing: Timing) -> str:
+    return f"{1e3 * timing.best:9.2f} ms (median {1e3 * timing.median:.2f})"
+
+
+def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
+    """Run the cases, print their tables and return the figures."""
+    info = machine()
+    threads = info["numba_threads"]
+    busy = info["background_busy_cores"]
+    figures: dict = {
+        "date": datetime.date.today().isoformat(),
+        "quick": quick,
+        "sizes": {"additive": sizes.additive, "alpha": sizes.alpha},
+        "frame": [WIDTH, HEIGHT],
+        "cpu_count": info["cpu_count"],
+        "numba_threads": threads,
+        "background_busy_cores": busy,
+    }
+    rows = [
+        (
+            "machine",
+            f"{info['usable_cores']} usable cores, {threads} Numba threads "
+            f"({info['numba_threading_layer']}), {info['processor']}",
+        ),
+        (
+            "other load",
+            f"{busy:.2f} cores busy with other processes at the start"
+            + (" - parallel timings will be inflated" if busy > 0.25 else ""),
+        ),
+        ("versions", f"Python {info['python']}, NumPy {info['numpy']}, Numba {info['numba']}"),
+        ("timings", "best of N draws after warm-up draws (median in brackets)"),
+    ]
+    out(table(rows, title="motes render benchmark" + (" (--quick sizes)" if quick else "")))
+
+    a = bench_additive(sizes)
+    figures |= {
+        f"{ADDITIVE_KEY}_ms": 1e3 * a["timing"].best,
+        f"{ADDITIVE_KEY}_median_ms": 1e3 * a["timing"].median,
+        f"{ADDITIVE_KEY}_1thread_ms": 1e3 * a["one_thread"].best,
+        f"{ADDITIVE_KEY}_numpy_ms": 1e3 * a["numpy"].best,
+        f"{ADDITIVE_KEY}_speedup_vs_numpy": a["speedup_vs_numpy"],
+        f"{ADDITIVE_KEY}_drawn": a["drawn"],
+    }
+    lo, mean, hi = a["diameter_px"]
+    rows = [
+        (
+            "sprites",
+            f"{sizes.additive:,} smooth sprites, {lo:.1f}-{hi:.1f} px across "
+            f"(mean {mean:.2f}), {a['drawn']:,} drawn, {WIDTH} x {HEIGHT}",
+        ),
+        ("motes", _ms(a["timing"]) + " (target <= 30 ms)"),
+        ("motes, 1 thread", _ms(a["one_thread"])),
+        ("NumPy baseline", _ms(a["numpy"])),
+        ("", "(NumPy projection, the same 4 x 4 normalised footprint, np.add.at splat)"),
+        ("speed-up", f"{a['speedup_vs_numpy']:9.1f}x"),
+    ]
+    out()
+    out(table(rows, title="1. Additive sprites"))
+
+    b = bench_alpha(sizes)
+    figures |= {
+        f"{ALPHA_KEY}_ms": 1e3 * b["timing"].best,
+        f"{ALPHA_KEY}_median_ms": 1e3 * b["timing"].median,
+        f"{ALPHA_KEY}_numpy_ms": 1e3 * b["numpy"].best,
+        f"{ALPHA_KEY}_speedup_vs_numpy": b["speedup_vs_numpy"],
+        f"{ALPHA_KEY}_depth_complexity": b["depth_complexity"],
+    }
+    rows = [
+        (
+            "sprites",
+            f"{sizes.alpha:,} smooth sprites, {b['diameter_px']:.1f} px across on average, "
+            f"covering the frame {b['depth_complexity']:.1f} times, {b['drawn']:,} drawn",
+        ),
+        ("motes", _ms(b["timing"]) + " (sort, bin, composite back to front)"),
+        ("NumPy baseline", _ms(b["numpy"])),
+        (
+            "",
+            f"(per-sprite NumPy composite loop, timed on {sizes.alpha_numpy_subset:,} "
+            "sprites and scaled by the count)",
+        ),
+        ("speed-up", f"{b['speedup_vs_numpy']:9.1f}x"),
+    ]
+    out()
+    out(table(rows, title="2. Alpha-over sprites, depth-sorted"))
+
+    m = bench_metaballs(sizes, quick)
+    if m:
+        figures |= m
+        rows = [
+            (key, f"{value:.4g}" if isinstance(value, float) else str(value))
+            for key, value in m.items()
+        ]
+        out()
+        out(table(rows, title="3. Metaballs (benchmarks/metaballs_case.py)"))
+    return figures
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.render", description=__doc__.split("\n\n")[0]
+    )
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="shrunk sizes (20k additive, 5k alpha sprites): finishes in seconds;"
+        " JSON keys keep their full-size names",
+    )
+    args = parser.parse_args(argv)
+    sizes = Sizes.quick() if args.quick else Sizes.full()
+    started = time.perf_counter()
+    others = OtherLoad()
+    figures = run(sizes, quick=args.quick)
+    figures["benchmark_seconds"] = time.perf_counter() - started
+    figures["other_busy_cores_during_run"] = others.cores()
+    for key in ("background_busy_cores", "other_busy_cores_during_run"):
+        if not math.isfinite(figures[key]):  # no /proc/stat: unknown, not an error
+            figures[key] = None
+    bad = [k for k, v in figures.items() if isinstance(v, float) and not math.isfinite(v)]
+    if bad:
+        raise RuntimeError(f"non-finite figures: {bad}")
+    load = figures["other_busy_cores_during_run"]
+    note = "unknown" if load is None else f"{load:.2f}"
+    if load is not None and load > 0.1:
+        note += " (timings inflated: rerun on a quiet machine)"
+    print(
+        f"\ntotal {figures['benchmark_seconds']:.1f} s; cores kept busy by other processes, "
+        f"on average during the run: {note}; the JSON figures follow"
+    )
+    sys.stdout.flush()
+    print(json.dumps(figures, sort_keys=True))
+    return figures
+
+
+if __name__ == "__main__":
+    main()

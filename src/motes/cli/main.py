@@ -1,0 +1,199 @@
+"""``motes run``, ``motes scenes``, ``motes --version``.
+
+User mistakes (a bad scene key, a missing file, a bad option) end with exit status 2 and
+one line ``motes: error: ...`` on stderr, without a traceback. Ctrl-C ends with status
+130 after every finished frame has been written and the video closed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+import time
+from pathlib import Path
+
+RUN_EXAMPLES = """\
+examples:
+  motes run fire                          render the built-in fire to fire.mp4
+  motes run fire -o fire.gif --frames 60  60 frames to an animated GIF
+  motes run smoke -o still.png            the last frame as a PNG
+  motes run my_scene.toml -o frames/      a numbered PNG sequence in frames/
+  motes run rain --resolution 640x360 --seed 3 --export rain.npz
+"""
+
+
+class UserError(Exception):
+    """A mistake in what the user asked for: reported in one line, exit status 2."""
+
+
+def _resolution(text: str) -> tuple[int, int]:
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must look like 1280x720, got {text!r}") from None
+    if not (1 <= width <= 16384 and 1 <= height <= 16384):
+        raise argparse.ArgumentTypeError(f"width and height must be in [1, 16384], got {text}")
+    return width, height
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="motes", description="motes: particle systems, simulated and rendered headless."
+    )
+    parser.add_argument("--version", action="store_true", help="print the version and exit")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    run = sub.add_parser(
+        "run",
+        help="simulate a scene and render it to a video, images or a cache",
+        description="Simulate a scene (a built-in name or a .toml file) and render it.",
+        epilog=RUN_EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    run.add_argument("scene", metavar="NAME_OR_FILE", help="built-in scene name or .toml file")
+    run.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT",
+        help="OUT.mp4, OUT.gif, OUT.png (last frame) or a directory for PNG "
+        "frames (default: NAME.mp4)",
+    )
+    run.add_argument(
+        "--frames",
+        type=_positive_int,
+        metavar="N",
+        help="number of frames (default: the scene's duration × fps)",
+    )
+    run.add_argument("--seed", type=_seed, metavar="S", help="random seed (overrides the scene)")
+    run.add_argument(
+        "--resolution",
+        type=_resolution,
+        metavar="WxH",
+        help="image size, e.g. 1280x720 (default: the scene's)",
+    )
+    run.add_argument(
+        "--export",
+        metavar="CACHE.npz",
+        help="also write per-frame particle arrays (see docs/cache-format.md)",
+    )
+    run.add_argument(
+        "--no-render", action="store_true", help="simulate (and export) without rendering images"
+    )
+    run.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
+    sub.add_parser("scenes", help="list the built-in scenes")
+    sub.add_parser("demo", help="render the built-in fire to fire.mp4 (same as: motes run fire)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.version:
+        from .. import __version__
+
+        print(f"motes {__version__}")
+        return 0
+    if args.command is None:
+        parser.print_help()
+        return 0
+    if args.command == "demo":
+        args = parser.parse_args(["run", "fire", "-o", "fire.mp4"])
+    try:
+        if args.command == "scenes":
+            return _list_scenes()
+        return _run(args)
+    except UserError as error:
+        print(f"motes: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("\nmotes: interrupted", file=sys.stderr)
+        return 130
+
+
+def _list_scenes() -> int:
+    from ..scene import builtin_scenes
+
+    scenes = builtin_scenes()
+    width = max(map(len, scenes), default=0)
+    for name, description in scenes.items():
+        print(f"{name:<{width}}  {description}")
+    return 0
+
+
+def _run(args) -> int:
+    from ..io.cache import CacheWriter
+    from ..io.frames import open_writer
+    from ..scene import SceneError, load_scene
+    from .progress import Progress
+
+    try:
+        scene = load_scene(args.scene, seed=args.seed)
+    except SceneError as error:
+        raise UserError(str(error)) from None
+    except OSError as error:
+        raise UserError(f"cannot read {args.scene}: {error.strerror}") from None
+    frames = args.frames or scene.frame_count
+    output = None if args.no_render else Path(args.output or f"{scene.name}.mp4")
+    resolution = args.resolution or scene.camera.resolution
+    if output is not None and output.suffix.lower() not in ("", ".mp4", ".gif", ".png"):
+        raise UserError(f"-o must end in .mp4, .gif or .png, or be a directory; got {output}")
+    if output is not None and output.parent != Path() and not output.parent.is_dir():
+        raise UserError(f"output directory does not exist: {output.parent}")
+    if args.export and not Path(args.export).resolve().parent.is_dir():
+        raise UserError(f"export directory does not exist: {Path(args.export).parent}")
+
+    progress = Progress(frames, label=scene.name, enabled=not args.quiet)
+    start = time.perf_counter()
+    done = 0
+    interrupted = False
+    # An ExitStack closes every output even when closing another one fails (a second
+    # Ctrl-C, an ffmpeg error): each keeps the frames finished so far.
+    with contextlib.ExitStack() as outputs:
+        writer = outputs.enter_context(open_writer(output, fps=scene.fps)) if output else None
+        cache = outputs.enter_context(CacheWriter(args.export)) if args.export else None
+        outputs.callback(progress.close)
+        try:
+            # A .png keeps only the last frame: render just that one.
+            still = output is not None and output.suffix.lower() == ".png"
+            for index in range(frames):
+                scene.advance()
+                if writer is not None and (not still or index == frames - 1):
+                    writer.write(scene.render(resolution))
+                if cache is not None:
+                    cache.add_frame(scene.time, scene.systems)
+                done += 1
+                progress.update(done)
+        except KeyboardInterrupt:
+            interrupted = True
+    if interrupted:
+        kept = f"; {output} holds them" if output is not None and done else ""
+        print(f"motes: interrupted after {done} frames{kept}", file=sys.stderr)
+        return 130
+    if not args.quiet:
+        elapsed = time.perf_counter() - start
+        counts = ", ".join(f"{k} {v}" for k, v in scene.counts().items())
+        wrote = " and ".join(str(p) for p in (output, args.export) if p)
+        print(f"{done} frames in {elapsed:.1f} s ({done / elapsed:.1f} fps); particles: {counts}")
+        if wrote:
+            print(f"wrote {wrote}")
+    return 0

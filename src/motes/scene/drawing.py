@@ -1,0 +1,97 @@
+"""Turning a scene's render settings, objects and looks into renderer calls."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..io.frames import read_image
+from ..render import geometry
+from ..render.renderer import Renderer, background_from
+from ..render.shading import AmbientLight, DirectionalLight, default_lights
+from ..render.sprites import SpriteStyle
+from .scene import ParticleLook, SceneObject
+from .schema import SceneError
+
+
+class SceneRenderer:
+    """Renders a scene's current state; built once per scene and resolution."""
+
+    def __init__(self, scene, resolution=None):
+        settings = scene.render_settings
+        camera = scene.camera if resolution is None else scene.camera.with_resolution(resolution)
+        self.renderer = Renderer(
+            camera,
+            background=background_from(settings.background),
+            lights=_lights(settings.lights),
+            exposure=settings.exposure,
+            tonemap=settings.tonemap,
+            supersample=settings.supersample,
+        )
+        self.objects = [_drawable(o) for o in scene.objects]
+        self.styles = {
+            name: _style(look, f"system.{name}.render")
+            for name, look in scene.looks.items()
+            if look.visible
+        }
+
+    @property
+    def resolution(self) -> tuple[int, int]:
+        return self.renderer.resolution
+
+    def render_scene(self, scene) -> np.ndarray:
+        systems = [(scene.systems[name], style) for name, style in self.styles.items()]
+        return self.renderer.render(systems, self.objects)
+
+
+def _lights(lights):
+    if not lights:
+        return None
+    result = [DirectionalLight(d, color=c[:3], intensity=i) for d, c, i in lights]
+    ambient = [light for light in default_lights() if isinstance(light, AmbientLight)]
+    return result + ambient
+
+
+def _style(look: ParticleLook, path: str) -> SpriteStyle:
+    texture = None
+    if look.texture is not None:
+        try:
+            from ..color import srgb_to_linear
+
+            image = read_image(look.texture).astype(np.float64) / 255.0
+        except OSError as error:
+            raise SceneError(f"{path}.texture", f"cannot read image: {error}") from None
+        # A texture's RGB is sRGB-encoded like any image; its brightness drives alpha.
+        rgb = srgb_to_linear(image)
+        alpha = rgb.mean(axis=2, keepdims=True)
+        texture = np.concatenate([np.ones_like(rgb), alpha], axis=2).astype(np.float32)
+    return SpriteStyle(
+        kind=look.kind,
+        blend=look.blend,
+        softness=look.softness,
+        shutter=look.shutter,
+        intensity=look.intensity,
+        texture=texture,
+    )
+
+
+def _drawable(obj: SceneObject):
+    color = obj.color[:3]
+    p = obj.params
+    if obj.kind == "ground":
+        checker = (p["checker"][:3], p.get("checker_size", 1.0)) if "checker" in p else None
+        return geometry.Ground(
+            height=p.get("height", 0.0), size=p.get("size"), color=color, checker=checker
+        )
+    if obj.kind == "sphere":
+        return geometry.Sphere(p.get("center", (0.0, 0.0, 0.0)), p.get("radius", 1.0), color=color)
+    rotation = p.get("matrix")
+    if rotation is None and "rotation" in p:
+        from .parts import euler_rotation
+
+        rotation = euler_rotation(list(p["rotation"]), "object.rotation")
+    return geometry.Box(
+        p.get("center", (0.0, 0.0, 0.0)),
+        p.get("size", (1.0, 1.0, 1.0)),
+        rotation=rotation,
+        color=color,
+    )

@@ -1,0 +1,170 @@
+"""The ``motes`` command line: outputs, exit codes and messages."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+
+import imageio_ffmpeg
+import numpy as np
+import pytest
+from PIL import Image
+
+import motes
+from motes.cli import main
+from motes.io.cache import load_cache
+
+SMALL = ["--resolution", "64x36", "--quiet"]
+
+
+def run_cli(*args):
+    return main([str(a) for a in args])
+
+
+def test_version_and_help(capsys):
+    assert run_cli("--version") == 0
+    assert capsys.readouterr().out.strip() == f"motes {motes.__version__}"
+    with pytest.raises(SystemExit) as exit_info:
+        run_cli("run", "--help")
+    assert exit_info.value.code == 0
+    text = capsys.readouterr().out
+    assert "examples:" in text and "motes run fire -o fire.gif --frames 60" in text
+
+
+def test_scenes_lists_every_builtin_with_a_description(capsys):
+    assert run_cli("scenes") == 0
+    lines = capsys.readouterr().out.splitlines()
+    names = {line.split()[0] for line in lines}
+    assert {"fire", "smoke", "fireworks", "rain", "explosion", "snow", "waterfall", "lod"} <= names
+    assert all(len(line.split()) > 3 for line in lines)
+
+
+def test_run_writes_a_gif_and_a_cache_that_read_back(tmp_path, capsys):
+    gif, cache = tmp_path / "fire.gif", tmp_path / "fire.npz"
+    assert run_cli("run", "fire", "-o", gif, "--frames", 4, "--export", cache, *SMALL) == 0
+    assert capsys.readouterr().err == ""
+    with Image.open(gif) as image:
+        assert image.size == (64, 36)
+        assert image.n_frames >= 2  # Pillow merges identical frames; fire frames differ
+    data = load_cache(cache)
+    assert data.frame_count == 4
+    np.testing.assert_allclose(data.times, np.arange(1, 5) / 30)
+    first = data.frame(0, "flame")
+    assert first["position"].shape[1] == 3 and len(first["id"]) > 0
+
+
+def test_run_writes_mp4_png_and_sequences(tmp_path):
+    mp4 = tmp_path / "smoke.mp4"
+    assert run_cli("run", "smoke", "-o", mp4, "--frames", 3, *SMALL) == 0
+    assert imageio_ffmpeg.count_frames_and_secs(str(mp4))[0] == 3
+    png = tmp_path / "last.png"
+    assert run_cli("run", "smoke", "-o", png, "--frames", 2, *SMALL) == 0
+    with Image.open(png) as image:
+        assert image.size == (64, 36)
+        assert np.asarray(image).std() > 1  # a ground, a sky and smoke: not one colour
+    frames = tmp_path / "frames"
+    assert run_cli("run", "smoke", "-o", f"{frames}/", "--frames", 3, *SMALL) == 0
+    assert sorted(p.name for p in frames.iterdir()) == [
+        "frame_00000.png",
+        "frame_00001.png",
+        "frame_00002.png",
+    ]
+
+
+def test_same_seed_same_frames_other_seed_other_frames(tmp_path):
+    def render(seed):
+        path = tmp_path / f"s{seed}.png"
+        assert run_cli("run", "fire", "-o", path, "--frames", 5, "--seed", seed, *SMALL) == 0
+        return np.asarray(Image.open(path))
+
+    assert np.array_equal(render(1), render(1))
+    assert not np.array_equal(render(1), render(2))
+
+
+def test_progress_and_summary_unless_quiet(tmp_path, capsys):
+    out = tmp_path / "f.gif"
+    assert run_cli("run", "fire", "-o", out, "--frames", 3, "--resolution", "32x18") == 0
+    captured = capsys.readouterr()
+    assert "3/3" in captured.err and "fps" in captured.err
+    assert "3 frames in" in captured.out and "flame" in captured.out
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["run", "campfire"], "no built-in scene 'campfire'"),
+        (["run", "fire", "-o", "out.avi"], "-o must end in .mp4, .gif or .png"),
+        (["run", "fire", "-o", "no/such/dir/out.mp4"], "output directory does not exist"),
+        (["run", "fire", "--export", "no/such/dir/c.npz"], "export directory does not exist"),
+    ],
+)
+def test_user_mistakes_exit_2_with_one_line(args, message, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert run_cli(*args) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("motes: error: ") and message in err
+    assert err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_scene_file_mistakes_exit_2_with_the_key_path(tmp_path, capsys):
+    scene = tmp_path / "bad.toml"
+    scene.write_text('[[system]]\nname = "a"\ncapacity = -5\n')
+    assert run_cli("run", scene, "-o", tmp_path / "x.gif") == 2
+    err = capsys.readouterr().err
+    assert err == "motes: error: system[0].capacity: must be >= 1, got -5\n"
+
+
+def test_bad_option_values_exit_2(capsys):
+    for args in (["--resolution", "640-480"], ["--frames", "0"], ["--seed", "-1"]):
+        with pytest.raises(SystemExit) as exit_info:
+            run_cli("run", "fire", *args)
+        assert exit_info.value.code == 2
+        assert "error: argument" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
+def test_ctrl_c_keeps_a_playable_video_of_the_frames_so_far(tmp_path):
+    out = tmp_path / "fire.mp4"
+    process = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "motes",
+            "run",
+            "fire",
+            "-o",
+            str(out),
+            "--frames",
+            "100000",
+            "--resolution",
+            "64x36",
+        ],
+        stderr=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        start_new_session=True,
+    )
+    seen = b""
+    deadline = time.monotonic() + 300
+    try:
+        # The progress bar redraws "N/100000"; wait for a few finished frames.
+        while time.monotonic() < deadline:
+            seen += os.read(process.stderr.fileno(), 4096)
+            done = [int(n) for n in re.findall(rb"(\d+)/100000", seen)]
+            if done and done[-1] >= 5:
+                break
+        os.killpg(process.pid, signal.SIGINT)
+        _, err_text = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:  # pragma: no cover - only when the test fails
+            process.kill()
+            process.communicate()
+    message = (seen + err_text).decode()
+    assert process.returncode == 130, message
+    written = int(re.search(r"interrupted after (\d+) frames", message).group(1))
+    assert written >= 5
+    assert imageio_ffmpeg.count_frames_and_secs(str(out))[0] == written
+    assert [p.name for p in tmp_path.iterdir()] == ["fire.mp4"]  # no temporary files left
