@@ -1,9 +1,17 @@
-"""Every Python block of docs/guide.md runs, in order, in one namespace."""
+"""Every Python block of the guides runs, in order, in one namespace per document."""
 
 import re
 from pathlib import Path
 
-GUIDE = Path(__file__).resolve().parents[1] / "docs" / "guide.md"
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+GUIDE = DOCS / "guide.md"
+
+
+def run_blocks(path: Path) -> dict:
+    namespace: dict = {}
+    for block in re.findall(r"```python\n(.*?)```", path.read_text(), flags=re.S):
+        exec(compile(block, str(path), "exec"), namespace)
+    return namespace
 
 
 def test_guide_examples_run(capsys):
@@ -14,3 +22,11 @@ def test_guide_examples_run(capsys):
         exec(compile(block, str(GUIDE), "exec"), namespace)
     out = capsys.readouterr().out
     assert "contacts" in out
+
+
+def test_rendering_guide_examples_run(capsys):
+    namespace = run_blocks(DOCS / "rendering.md")
+    assert namespace["image"].shape == (180, 320, 3)
+    assert namespace["image"].std() > 5  # ground, crate, ball and blobs: not a flat image
+    assert (namespace["out"] / "clip.gif").exists()
+    assert "True" in capsys.readouterr().out
