@@ -12,11 +12,12 @@ import numpy as np
 
 from .. import _validate as check
 from ..color import parse_color
+from ..particles import BUILTIN
 from .background import Background
 from .camera import Camera
 from .frame import Frame
 from .geometry import draw_geometry
-from .sprites import Blend, SpriteStyle, draw_particles
+from .sprites import Blend, SpriteRasterizer, SpriteStyle
 from .tonemap import to_srgb8
 
 _WHITE = np.ones((1, 4), dtype=np.float32)
@@ -74,6 +75,9 @@ class Renderer:
         self.exposure = check.positive("exposure", exposure)
         self.tonemap = tonemap
         self.supersample = check.integer("supersample", supersample, low=1)
+        # One rasteriser per (system, style) keeps its scratch buffers between frames
+        # (tens of MB at a million particles); the entries hold no reference to systems.
+        self._rasterizers: dict[tuple[int, int], SpriteRasterizer] = {}
         to_srgb8(np.zeros((1, 1, 3), np.float32), exposure=exposure, tonemap=tonemap)
 
     @property
@@ -95,7 +99,12 @@ class Renderer:
                 frame, self.camera, list(objects), lights=self.lights, supersample=self.supersample
             )
         for system, style in self._draw_order(systems):
-            draw_system(frame, self.camera, system, style)
+            key = (id(system), id(style))
+            if key not in self._rasterizers:
+                if len(self._rasterizers) > 64:
+                    self._rasterizers.clear()
+                self._rasterizers[key] = SpriteRasterizer(style)
+            draw_system(frame, self.camera, system, self._rasterizers[key])
         return frame
 
     def render(self, systems=(), objects=()) -> np.ndarray:
@@ -120,25 +129,22 @@ class Renderer:
         return alpha + additive
 
 
-def draw_system(frame: Frame, camera: Camera, system, style: SpriteStyle) -> int:
-    """Draw one particle system's live particles with ``style``; returns the number drawn."""
+def draw_system(frame: Frame, camera: Camera, system, rasterizer: SpriteRasterizer) -> int:
+    """Draw one particle system's live particles; returns the number drawn."""
+    style = rasterizer.style
     store = system.store
     n = len(system)
     if n == 0:
         return 0
     colors = system["color"] if store.has("color") else np.broadcast_to(_WHITE, (n, 4))
-    radii = system["size"] if store.has("size") else None
+    if store.has("size"):
+        radii = system["size"]
+    else:  # the size every particle would have had (the attribute's default)
+        radii = np.full(n, BUILTIN["size"].default, dtype=np.float32)
     rotation = system["rotation"] if store.has("rotation") and style.texture is not None else None
     velocities = system["velocity"] if style.shutter > 0 else None
-    return draw_particles(
-        frame,
-        camera,
-        system["position"],
-        colors,
-        radii,
-        style=style,
-        rotation=rotation,
-        velocities=velocities,
+    return rasterizer.draw(
+        frame, camera, system["position"], colors, radii, rotation=rotation, velocities=velocities
     )
 
 
