@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import platform
 import statistics
+import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -140,3 +142,34 @@ def table(rows: list[tuple[str, str]], *, title: str) -> str:
     lines = [title, "-" * len(title)]
     lines += [f"  {name:<{width}}  {value}" for name, value in rows]
     return "\n".join(lines)
+
+
+def run_and_report(run: Callable[[], dict]) -> dict:
+    """Run a benchmark, add its duration and the load of other processes, and print the
+    closing line and the one line of JSON every benchmark ends with.
+
+    Non-finite figures are an error; load figures that cannot be measured (no
+    ``/proc/stat``) are reported as ``None``.
+    """
+    started = time.perf_counter()
+    others = OtherLoad()
+    figures = run()
+    figures["benchmark_seconds"] = time.perf_counter() - started
+    figures["other_busy_cores_during_run"] = others.cores()
+    for key in ("background_busy_cores", "other_busy_cores_during_run"):
+        if not math.isfinite(figures[key]):  # no /proc/stat: unknown, not an error
+            figures[key] = None
+    bad = [k for k, v in figures.items() if isinstance(v, float) and not math.isfinite(v)]
+    if bad:
+        raise RuntimeError(f"non-finite figures: {bad}")
+    load = figures["other_busy_cores_during_run"]
+    note = "unknown" if load is None else f"{load:.2f}"
+    if load is not None and load > 0.1:
+        note += " (timings inflated: rerun on a quiet machine)"
+    print(
+        f"\ntotal {figures['benchmark_seconds']:.1f} s; cores kept busy by other processes, "
+        f"on average during the run: {note}; the JSON figures follow"
+    )
+    sys.stdout.flush()
+    print(json.dumps(figures, sort_keys=True))
+    return figures

@@ -27,10 +27,7 @@ from __future__ import annotations
 import argparse
 import copy
 import datetime
-import json
-import math
 import statistics
-import sys
 import time
 from collections import defaultdict
 from collections.abc import Iterator
@@ -46,10 +43,10 @@ from motes.forces.curl_noise import perlin_gradients
 from motes.particles import BUILTIN
 
 from ._common import (
-    OtherLoad,
     Timing,
     copy_bandwidth,
     machine,
+    run_and_report,
     table,
     time_calls,
 )
@@ -771,28 +768,7 @@ def main(argv: list[str] | None = None) -> dict:
     )
     args = parser.parse_args(argv)
     sizes = Sizes.quick() if args.quick else Sizes.full()
-    started = time.perf_counter()
-    others = OtherLoad()
-    figures = run(sizes, quick=args.quick)
-    figures["benchmark_seconds"] = time.perf_counter() - started
-    figures["other_busy_cores_during_run"] = others.cores()
-    for key in ("background_busy_cores", "other_busy_cores_during_run"):
-        if not math.isfinite(figures[key]):  # no /proc/stat: unknown, not an error
-            figures[key] = None
-    bad = [k for k, v in figures.items() if isinstance(v, float) and not math.isfinite(v)]
-    if bad:
-        raise RuntimeError(f"non-finite figures: {bad}")
-    load = figures["other_busy_cores_during_run"]
-    note = "unknown" if load is None else f"{load:.2f}"
-    if load is not None and load > 0.1:
-        note += " (timings inflated: rerun on a quiet machine)"
-    print(
-        f"\ntotal {figures['benchmark_seconds']:.1f} s; cores kept busy by other processes, "
-        f"on average during the run: {note}; the JSON figures follow"
-    )
-    sys.stdout.flush()
-    print(json.dumps(figures, sort_keys=True))
-    return figures
+    return run_and_report(lambda: run(sizes, quick=args.quick))
 
 
 if __name__ == "__main__":

@@ -37,24 +37,19 @@ def _resolution(text: str) -> tuple[int, int]:
     return width, height
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
+def _integer_from(low: int):
+    """An argparse type: an integer >= ``low``."""
 
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
+        return value
 
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
-    return value
+    return parse
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -80,11 +75,13 @@ def _parser() -> argparse.ArgumentParser:
     )
     run.add_argument(
         "--frames",
-        type=_positive_int,
+        type=_integer_from(1),
         metavar="N",
         help="number of frames (default: the scene's duration × fps)",
     )
-    run.add_argument("--seed", type=_seed, metavar="S", help="random seed (overrides the scene)")
+    run.add_argument(
+        "--seed", type=_integer_from(0), metavar="S", help="random seed (overrides the scene)"
+    )
     run.add_argument(
         "--resolution",
         type=_resolution,
