@@ -148,3 +148,25 @@ def test_screen_scaled_rates_use_the_scene_camera():
     assert isinstance(near.emitters[0].rate, mo.ScreenScaled)
     assert near.emitters[0].rate.camera is scene.camera
     assert len(near) > 10 * len(far) > 0
+
+
+def test_textured_sprites_load_their_image_relative_to_the_scene_file(tmp_path):
+    from motes.io.frames import save_image
+
+    mask = np.zeros((16, 16, 3), np.uint8)
+    mask[4:12, 4:12] = 255  # a bright square: opaque in the middle, clear around
+    save_image(tmp_path / "square.png", mask)
+    text = MINIMAL + '  [system.render]\n  texture = "square.png"\n  blend = "alpha"\n'
+    path = tmp_path / "textured.toml"
+    path.write_text(text)
+    scene = load_scene(path)
+    scene.advance()
+    image = scene.render((48, 27))
+    assert image.std() > 0
+    style = scene._renderer.styles["a"]
+    assert style.texture.shape == (16, 16, 4)
+    assert style.texture[8, 8, 3] == 1.0 and style.texture[0, 0, 3] == 0.0
+    path.write_text(text.replace("square.png", "missing.png"))
+    with pytest.raises(SceneError, match="image file not found") as info:
+        load_scene(path)
+    assert info.value.path == "system[0].render.texture"
