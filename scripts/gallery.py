@@ -3,7 +3,7 @@
     python scripts/gallery.py [--only NAME ...] [--out docs/gallery]
 
 Writes ``NAME.png`` (the frame at ``--still-at`` of the run, 640×360) and ``NAME.gif``
-(every other frame, 320×180) for each scene, and ``docs/gallery/README.md`` with the
+(every third frame, 256×144) for each scene, and ``docs/gallery/README.md`` with the
 particle counts. Everything is seeded, so the same machine gives the same files.
 """
 
@@ -55,8 +55,8 @@ def main() -> None:
             args.out,
             still_at=args.still_at,
             still_size=(640, 360),
-            gif_size=(320, 180),
-            gif_stride=2,
+            gif_size=(256, 144),
+            gif_stride=3,
         )
         counts = ", ".join(f"{k} {v}" for k, v in scene.counts().items())
         print(f"{name:10s} {scene.frame_count:4d} frames  {seconds:6.1f} s  {counts}")
@@ -70,7 +70,7 @@ def write_index(out: Path, rows) -> None:
         "# Gallery",
         "",
         "Every built-in scene, rendered by `python scripts/gallery.py` (stills 640×360,",
-        "animations 320×180 at half the frame rate). Run any of them at full size with",
+        "animations 256×144 at a third of the frame rate). Run any of them at full size with",
         "`motes run NAME`.",
         "",
     ]
