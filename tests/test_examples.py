@@ -26,3 +26,15 @@ def test_integrators_example_orders_energies():
     assert energy_after("explicit_euler", 0.05) > 0.5 * (1 + 0.05**2) ** 150
     assert energy_after("rk4", 0.05) == pytest.approx(0.5, rel=1e-6)
     assert energy_after("semi_implicit_euler", 0.05) == pytest.approx(0.5, rel=0.05)
+
+
+def test_metaball_drops_example_writes_a_surface_per_frame(tmp_path):
+    sys.path.insert(0, str(EXAMPLES))
+    try:
+        from metaball_drops import render_drops
+    finally:
+        sys.path.remove(str(EXAMPLES))
+    out = tmp_path / "drops.gif"
+    faces = render_drops(str(out), frames=4, size=(64, 36))
+    assert out.exists()
+    assert all(f > 100 for f in faces)  # 600 drops make a closed blobby surface
