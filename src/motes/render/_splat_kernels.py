@@ -146,6 +146,27 @@ def _add(rgb, pixels, pixel, w, d, inv_soft, red, green, blue):
 
 
 @device
+def _unpack(records, s, streak):
+    """Record ``s``: head, radius, colour, tail, and the segment terms both splats use."""
+    sx = records[s, SX]
+    sy = records[s, SY]
+    rf = records[s, RADIUS]
+    head_depth = records[s, DEPTH]
+    tx, ty, tail_depth = sx, sy, head_depth
+    if streak:
+        tx = records[s, TAIL_X]
+        ty = records[s, TAIL_Y]
+        tail_depth = records[s, TAIL_DEPTH]
+    segx, segy = sx - tx, sy - ty
+    seg2 = segx * segx + segy * segy
+    inv_seg2 = ONE / seg2 if seg2 > ZERO else ZERO
+    return (
+        sx, sy, rf, records[s, RED], records[s, GREEN], records[s, BLUE], tx, ty, tail_depth,
+        segx, segy, inv_seg2, ONE / (rf * rf), head_depth - tail_depth,
+    )  # fmt: skip
+
+
+@device
 def _splat_window(records, s, kind, streak, window, width, height, inv_soft, pixels, rgb):
     """Normalise and add a footprint whose pixel box fits a ``window`` × ``window`` window.
 
@@ -157,23 +178,9 @@ def _splat_window(records, s, kind, streak, window, width, height, inv_soft, pix
     their addresses onto the image. Flat unsigned pixel indices: signed ones make Numba
     add a negative-index wraparound to every access.
     """
-    sx = records[s, SX]
-    sy = records[s, SY]
-    rf = records[s, RADIUS]
-    head_depth = records[s, DEPTH]
-    red = records[s, RED]
-    green = records[s, GREEN]
-    blue = records[s, BLUE]
-    tx, ty, tail_depth = sx, sy, head_depth
-    if streak:
-        tx = records[s, TAIL_X]
-        ty = records[s, TAIL_Y]
-        tail_depth = records[s, TAIL_DEPTH]
-    segx, segy = sx - tx, sy - ty
-    seg2 = segx * segx + segy * segy
-    inv_seg2 = ONE / seg2 if seg2 > ZERO else ZERO
-    inv_rf2 = ONE / (rf * rf)
-    rise = head_depth - tail_depth
+    sx, sy, rf, red, green, blue, tx, ty, tail_depth, segx, segy, inv_seg2, inv_rf2, rise = _unpack(
+        records, s, streak
+    )
     c0, r0, _, _ = footprint_bounds(kind, sx, sy, tx, ty, rf)
     col0, row0 = int(c0), int(r0)
     stride = np.uint64(width)
@@ -223,23 +230,9 @@ def _splat_window(records, s, kind, streak, window, width, height, inv_soft, pix
 @device
 def _splat_any(records, s, kind, streak, width, height, inv_soft, texture, pixels, rgb):
     """Normalise and add a footprint of any size (clipped to the image)."""
-    sx = records[s, SX]
-    sy = records[s, SY]
-    rf = records[s, RADIUS]
-    head_depth = records[s, DEPTH]
-    red = records[s, RED]
-    green = records[s, GREEN]
-    blue = records[s, BLUE]
-    tx, ty, tail_depth = sx, sy, head_depth
-    if streak:
-        tx = records[s, TAIL_X]
-        ty = records[s, TAIL_Y]
-        tail_depth = records[s, TAIL_DEPTH]
-    segx, segy = sx - tx, sy - ty
-    seg2 = segx * segx + segy * segy
-    inv_seg2 = ONE / seg2 if seg2 > ZERO else ZERO
-    inv_rf2 = ONE / (rf * rf)
-    rise = head_depth - tail_depth
+    sx, sy, rf, red, green, blue, tx, ty, tail_depth, segx, segy, inv_seg2, inv_rf2, rise = _unpack(
+        records, s, streak
+    )
     c0, r0, c1, r1 = footprint_bounds(kind, sx, sy, tx, ty, rf)
     stride = np.uint64(width)
     e = footprint_extent(kind, rf)
@@ -250,7 +243,7 @@ def _splat_any(records, s, kind, streak, width, height, inv_soft, texture, pixel
             kind, streak, sx, sy, segx, segy, inv_seg2, rf, ONE, ZERO, texture, c0, r0, c1, r1
         )
     else:
-        total = profile_area(kind, rf, np.sqrt(float(seg2)), 0.0)
+        total = profile_area(kind, rf, np.sqrt(float(segx * segx + segy * segy)), 0.0)
     scale = np.float32(1.0 / total) if total > 0 else ZERO
     for row in range(max(int(r0), 0), min(int(r1), height - 1) + 1):
         py = np.float32(row) + HALF
