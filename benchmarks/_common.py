@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
@@ -173,3 +174,20 @@ def run_and_report(run: Callable[[], dict]) -> dict:
     sys.stdout.flush()
     print(json.dumps(figures, sort_keys=True))
     return figures
+
+
+def benchmark_main(argv, *, prog: str, doc: str, quick_help: str, run: Callable[[bool], dict]):
+    """The command line every benchmark shares: ``--quick``, then :func:`run_and_report`.
+
+    ``run(quick)`` measures and returns the figures; ``doc``'s first paragraph describes
+    the benchmark in ``--help``.
+    """
+    parser = argparse.ArgumentParser(prog=prog, description=doc.split("\n\n")[0])
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"shrunk sizes ({quick_help}): finishes in seconds; JSON keys keep their "
+        "full-size names",
+    )
+    args = parser.parse_args(argv)
+    return run_and_report(lambda: run(args.quick))

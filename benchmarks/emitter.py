@@ -24,7 +24,6 @@ inflate parallel timings. See ``docs/performance.md`` for the figures and their 
 
 from __future__ import annotations
 
-import argparse
 import copy
 import datetime
 import statistics
@@ -44,9 +43,9 @@ from motes.particles import BUILTIN
 
 from ._common import (
     Timing,
+    benchmark_main,
     copy_bandwidth,
     machine,
-    run_and_report,
     table,
     time_calls,
 )
@@ -757,18 +756,13 @@ def _slug(name: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> dict:
-    parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.emitter", description=__doc__.split("\n\n")[0]
+    return benchmark_main(
+        argv,
+        prog="python -m benchmarks.emitter",
+        doc=__doc__,
+        quick_help="10k/100k ballistic, 100k fire",
+        run=lambda quick: run(Sizes.quick() if quick else Sizes.full(), quick=quick),
     )
-    parser.add_argument(
-        "--quick",
-        action="store_true",
-        help="shrunk sizes (10k/100k ballistic, 100k fire): finishes in seconds;"
-        " JSON keys keep their full-size names",
-    )
-    args = parser.parse_args(argv)
-    sizes = Sizes.quick() if args.quick else Sizes.full()
-    return run_and_report(lambda: run(sizes, quick=args.quick))
 
 
 if __name__ == "__main__":

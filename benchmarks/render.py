@@ -26,7 +26,6 @@ are reported too: on a small shared machine they inflate parallel timings.
 
 from __future__ import annotations
 
-import argparse
 import datetime
 import inspect
 from dataclasses import dataclass
@@ -38,7 +37,7 @@ from motes.render.camera import Camera
 from motes.render.frame import Frame
 from motes.render.sprites import SpriteRasterizer, SpriteStyle
 
-from ._common import Timing, machine, run_and_report, table, time_calls
+from ._common import Timing, benchmark_main, machine, table, time_calls
 
 WIDTH, HEIGHT = 1280, 720
 ADDITIVE_KEY = "additive_1m"
@@ -356,18 +355,13 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
 
 
 def main(argv: list[str] | None = None) -> dict:
-    parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.render", description=__doc__.split("\n\n")[0]
+    return benchmark_main(
+        argv,
+        prog="python -m benchmarks.render",
+        doc=__doc__,
+        quick_help="20k additive, 5k alpha sprites",
+        run=lambda quick: run(Sizes.quick() if quick else Sizes.full(), quick=quick),
     )
-    parser.add_argument(
-        "--quick",
-        action="store_true",
-        help="shrunk sizes (20k additive, 5k alpha sprites): finishes in seconds;"
-        " JSON keys keep their full-size names",
-    )
-    args = parser.parse_args(argv)
-    sizes = Sizes.quick() if args.quick else Sizes.full()
-    return run_and_report(lambda: run(sizes, quick=args.quick))
 
 
 if __name__ == "__main__":

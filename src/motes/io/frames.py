@@ -57,6 +57,7 @@ import math
 import os
 import subprocess
 import tempfile
+from abc import ABC, abstractmethod
 from collections.abc import Iterable, Sequence
 from fractions import Fraction
 from pathlib import Path
@@ -100,7 +101,7 @@ def _check_file_path(path, suffix: str) -> Path:
     return path
 
 
-class FrameWriter:
+class FrameWriter(ABC):
     """Base class of the frame writers: a context manager taking frames one at a time.
 
     Parameters
@@ -187,11 +188,13 @@ class FrameWriter:
         name, path = type(self).__name__, str(self.path)
         return f"{name}({path!r}, frames_written={self.frames_written}, {state})"
 
-    def _write(self, frame: np.ndarray) -> None:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abstractmethod
+    def _write(self, frame: np.ndarray) -> None:
+        """Hand one checked frame to the output."""
 
-    def _close(self) -> None:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abstractmethod
+    def _close(self) -> None:
+        """Finish the output (called once)."""
 
 
 class PngWriter(FrameWriter):

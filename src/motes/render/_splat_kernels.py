@@ -6,8 +6,9 @@ clipping it to each tile costs more than drawing it. Instead, the projection giv
 small footprint to one tile, the one holding the centre of its box, provided the box
 reaches at most ``MARGIN`` (half a tile) beyond that tile. Then:
 
-1. :func:`scan_counts` turns the per-(chunk, list) counts into write offsets; each tile
-   has :data:`LISTS` lists: footprints that fit a 3 × 3 window, a 4 × 4 one, and larger;
+1. :func:`motes.render.tiles.scan_counts` turns the per-(chunk, list) counts into write
+   offsets; each tile has :data:`LISTS` lists: footprints that fit a 3 × 3 window, a
+   4 × 4 one, and larger;
 2. :func:`scatter_records` copies the records into list order (a counting sort, stable:
    each list keeps the caller's order);
 3. :func:`splat_kernel` draws the tiles in four phases by the parity of their column and
@@ -27,7 +28,7 @@ from functools import cache
 import numba
 import numpy as np
 
-from .._jit import device, parallel_kernel, serial_kernel
+from .._jit import device, parallel_kernel
 from ._footprint import (
     BLUE,
     DEPTH,
@@ -60,24 +61,6 @@ from .tiles import CHUNK
 #: 4 px across fit the windows.
 WINDOWS = (3, 4, 0)
 LISTS = len(WINDOWS)
-
-
-@serial_kernel
-def scan_counts(counts, starts):
-    """Per-(chunk, list) counts -> write offsets (in place); ``starts[b]`` = list b's first slot.
-
-    List-major, chunk-minor: list ``b``'s slots hold chunk 0's particles, then chunk 1's...
-    which with the chunks' own order is the caller's order.
-    """
-    chunks, tiles = counts.shape
-    total = 0
-    for t in range(tiles):
-        starts[t] = total
-        for c in range(chunks):
-            k = counts[c, t]
-            counts[c, t] = total
-            total += k
-    starts[tiles] = total
 
 
 @parallel_kernel

@@ -85,7 +85,7 @@ from . import _splat_kernels as splat
 from . import _sprite_kernels as k
 from .camera import Camera
 from .frame import Frame
-from .tiles import CHUNK, TILE, bin_boxes
+from .tiles import CHUNK, TILE, bin_boxes, scan_counts
 
 __all__ = ["Blend", "Falloff", "SpriteKind", "SpriteRasterizer", "SpriteStyle", "draw_particles"]
 
@@ -384,7 +384,7 @@ class SpriteRasterizer:
     def _sort_fast(self, frame, count: int):
         """The fast path's records in list order, and the lists' starts."""
         starts = np.empty(self._counts.shape[1] + 1, np.int64)
-        splat.scan_counts(self._counts, starts)
+        scan_counts(self._counts, starts)
         records = self._buffer("sorted", (count, self._record.shape[1]))
         splat.scatter_records(self._record, self._tile_of, self._counts, records)
         return records, starts

@@ -53,8 +53,12 @@ def _count(x0, y0, x1, y1, tiles_x, tile, counts):
 
 
 @serial_kernel
-def _scan(counts, starts):
-    """Turn per-(chunk, tile) counts into write offsets; fill tile starts."""
+def scan_counts(counts, starts):
+    """Per-(chunk, list) counts -> write offsets (in place); ``starts[t]`` = list t's first slot.
+
+    List-major, chunk-minor: list ``t``'s slots hold chunk 0's items, then chunk 1's...
+    which, with each chunk filled in order, keeps the caller's order within every list.
+    """
     chunks, tiles = counts.shape
     total = 0
     for t in range(tiles):
@@ -98,7 +102,7 @@ def bin_boxes(x0, y0, x1, y1, width: int, height: int) -> TileBins:
     counts = np.zeros((chunks, tiles_x * tiles_y), dtype=np.int64)
     _count(x0, y0, x1, y1, tiles_x, TILE, counts)
     starts = np.empty(tiles_x * tiles_y + 1, dtype=np.int64)
-    _scan(counts, starts)
+    scan_counts(counts, starts)
     items = np.empty(starts[-1], dtype=np.int32)
     _fill(x0, y0, x1, y1, tiles_x, TILE, counts, items)
     return TileBins(starts, items, tiles_x, tiles_y)
