@@ -163,10 +163,18 @@ def test_textured_sprites_load_their_image_relative_to_the_scene_file(tmp_path):
     scene.advance()
     image = scene.render((48, 27))
     assert image.std() > 0
-    style = scene._renderer.styles["a"]
+    style = scene._renderers[(48, 27)].styles["a"]
     assert style.texture.shape == (16, 16, 4)
     assert style.texture[8, 8, 3] == 1.0 and style.texture[0, 0, 3] == 0.0
     path.write_text(text.replace("square.png", "missing.png"))
     with pytest.raises(SceneError, match="image file not found") as info:
         load_scene(path)
     assert info.value.path == "system[0].render.texture"
+
+
+def test_render_resolution_is_per_call_and_defaults_to_the_camera():
+    scene = load_scene(MINIMAL.replace("[scene]", "[camera]\nresolution = [40, 30]\n\n[scene]"))
+    scene.advance()
+    assert scene.render((32, 18)).shape == (18, 32, 3)
+    assert scene.render().shape == (30, 40, 3)  # not the size asked for last time
+    assert scene.render((32, 18)).shape == (18, 32, 3)

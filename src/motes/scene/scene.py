@@ -113,7 +113,7 @@ class Scene:
         children = {id(c) for s in systems.values() for c in s.children}
         self.roots = [s for s in systems.values() if id(s) not in children]
         self.frame = 0
-        self._renderer = None
+        self._renderers: dict[tuple[int, int], object] = {}
 
     @property
     def frame_count(self) -> int:
@@ -138,14 +138,17 @@ class Scene:
         return {name: len(s) for name, s in self.systems.items()}
 
     def render(self, resolution=None) -> np.ndarray:
-        """The current frame as a (height, width, 3) uint8 sRGB image."""
+        """The current frame as a (height, width, 3) uint8 sRGB image.
+
+        ``resolution`` is ``(width, height)`` [px]; ``None`` uses the camera's. One
+        renderer is kept per resolution (a gallery renders stills and thumbnails).
+        """
         from .drawing import SceneRenderer
 
-        if self._renderer is None or (
-            resolution and self._renderer.resolution != tuple(resolution)
-        ):
-            self._renderer = SceneRenderer(self, resolution)
-        return self._renderer.render_scene(self)
+        wanted = self.camera.resolution if resolution is None else tuple(resolution)
+        if wanted not in self._renderers:
+            self._renderers[wanted] = SceneRenderer(self, wanted)
+        return self._renderers[wanted].render_scene(self)
 
     def __repr__(self) -> str:
         counts = ", ".join(f"{k}={v}" for k, v in self.counts().items())
