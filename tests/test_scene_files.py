@@ -121,7 +121,7 @@ def scene_with(extra: str, system_extra: str = "") -> str:
         ),
         (scene_with("[camera]\nnear = 2\nfar = 1"), "camera.far", "far must be > near"),
         # structure
-        ("[scene]\nduration = 1\n", "system", r"at least one \[\[system\]\]"),
+        ("[scene]\nduration = 1\n", "system", r"at least one \[\[system\]\] or \[\[body\]\]"),
         (scene_with("", "") + '[[system]]\nname = "a"\n', "system[1].name", "duplicate"),
     ],
 )

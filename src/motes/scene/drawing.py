@@ -40,7 +40,11 @@ class SceneRenderer:
 
     def render_scene(self, scene) -> np.ndarray:
         systems = [(scene.systems[name], style) for name, style in self.styles.items()]
-        return self.renderer.render(systems, self.objects)
+        objects = list(self.objects)
+        for body in scene.bodies.values():
+            systems.extend(body.particles())
+            objects.extend(body.drawables())
+        return self.renderer.render(systems, objects)
 
 
 def _lights(lights):

@@ -17,6 +17,7 @@ from .. import hierarchy
 from ..render.camera import Camera, Projection
 from ..system import ParticleSystem
 from . import parts
+from .bodies import Body, BuildContext, build_body
 from .schema import (
     SceneError,
     Table,
@@ -80,6 +81,9 @@ class Scene:
     looks : dict[str, ParticleLook]
     objects : list[SceneObject]
         Opaque geometry, including visible colliders.
+    bodies : dict[str, Body]
+        Cloths, strands, rigid bodies, liquids (``[[body]]``), stepped after the systems
+        in each substep.
     """
 
     def __init__(
@@ -96,6 +100,7 @@ class Scene:
         systems,
         looks,
         objects,
+        bodies=None,
         source=None,
     ):
         self.name = name
@@ -109,6 +114,7 @@ class Scene:
         self.systems = systems
         self.looks = looks
         self.objects = objects
+        self.bodies: dict[str, Body] = dict(bodies or {})
         self.source = source
         children = {id(c) for s in systems.values() for c in s.children}
         self.roots = [s for s in systems.values() if id(s) not in children]
@@ -131,11 +137,15 @@ class Scene:
         for _ in range(self.substeps):
             for system in self.roots:
                 system.step(dt)
+            for body in self.bodies.values():
+                body.step(dt)
         self.frame += 1
 
     def counts(self) -> dict[str, int]:
-        """Live particles per system."""
-        return {name: len(s) for name, s in self.systems.items()}
+        """Live particles per system and body."""
+        counts = {name: len(s) for name, s in self.systems.items()}
+        counts.update((name, body.count()) for name, body in self.bodies.items())
+        return counts
 
     def render(self, resolution=None) -> np.ndarray:
         """The current frame as a (height, width, 3) uint8 sRGB image.
@@ -343,14 +353,17 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
             objects.append(_collider_object(c, tint))
 
     system_tables = root.tables("system")
+    body_tables = root.tables("body")
     root.finish()
-    if not system_tables:
-        raise SceneError("system", "a scene needs at least one [[system]]")
-    seeds = np.random.SeedSequence(seed).spawn(len(system_tables))
+    if not system_tables and not body_tables:
+        raise SceneError("system", "a scene needs at least one [[system]] or [[body]]")
+    # Bodies take the seeds after the systems', so adding a body keeps the systems' streams.
+    seeds = np.random.SeedSequence(seed).spawn(len(system_tables) + len(body_tables))
+    body_seeds = seeds[len(system_tables) :]
     systems: dict[str, ParticleSystem] = {}
     looks: dict[str, ParticleLook] = {}
     pending_children = []
-    for t, seq in zip(system_tables, seeds, strict=True):
+    for t, seq in zip(system_tables, seeds[: len(system_tables)], strict=True):
         system_name = t.get("name", string)
         if system_name in systems:
             raise SceneError(t.key_path("name"), f"duplicate system name {system_name!r}")
@@ -398,6 +411,14 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         c.finish()
         parent.add(link)
 
+    bodies: dict[str, Body] = {}
+    for t, seq in zip(body_tables, body_seeds, strict=True):
+        context = BuildContext(camera, base, int(seq.generate_state(1)[0]), list(shared))
+        body_name, body = build_body(t, context)
+        if body_name in systems or body_name in bodies:
+            raise SceneError(t.key_path("name"), f"duplicate name {body_name!r}")
+        bodies[body_name] = body
+
     return Scene(
         name=name,
         description=description,
@@ -410,6 +431,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         systems=systems,
         looks=looks,
         objects=objects,
+        bodies=bodies,
         source=origin,
     )
 

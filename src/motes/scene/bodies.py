@@ -1,0 +1,99 @@
+"""Bodies in a scene: simulations with topology (cloth, hair, rigid bodies, liquids).
+
+A ``[[system]]`` is an emitter-driven particle system; a ``[[body]]`` is anything else
+that steps in time and draws itself: a cloth draws a mesh, a hair strand lines, a liquid
+particles or a surface. Each ``type`` of body registers a builder with :func:`register`;
+the builder reads its table (every key documented in ``docs/scene-format.md``) and returns
+a :class:`Body`.
+"""
+
+from __future__ import annotations
+
+import importlib
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .schema import SceneError, Table, one_of
+
+
+class Body(ABC):
+    """Something a scene steps and draws that is not an emitter-driven system."""
+
+    @abstractmethod
+    def step(self, dt: float) -> None:
+        """Advance by ``dt`` seconds (the scene's substep)."""
+
+    def drawables(self) -> list:
+        """Opaque geometry in the current state (``render.geometry`` objects)."""
+        return []
+
+    def particles(self) -> list:
+        """``(system_like, SpriteStyle)`` pairs to draw as particles (see ``Renderer``)."""
+        return []
+
+    def count(self) -> int:
+        """Particles in the body (for progress lines and ``Scene.counts``)."""
+        return 0
+
+
+@dataclass
+class BuildContext:
+    """What a body builder may use besides its own table.
+
+    ``colliders`` are the scene's shared ``[[collider]]`` objects, ``seed`` a seed of the
+    body's own, ``base`` the folder relative paths (meshes, textures) are read from.
+    """
+
+    camera: object
+    base: Path
+    seed: int
+    colliders: list = field(default_factory=list)
+
+
+Builder = Callable[[Table, BuildContext], Body]
+
+#: Body type name -> builder. Filled by the modules in ``_BODY_MODULES`` at first use.
+BODY_TYPES: dict[str, Builder] = {}
+
+# Modules that register body types; imported lazily so that loading a scene without
+# bodies does not import (or compile) the solvers.
+_BODY_MODULES: tuple[str, ...] = ()
+
+
+def register(kind: str) -> Callable[[Builder], Builder]:
+    """Decorator: make ``builder`` the reader of ``[[body]] type = kind``."""
+
+    def decorate(builder: Builder) -> Builder:
+        if kind in BODY_TYPES and BODY_TYPES[kind] is not builder:
+            raise ValueError(f"body type {kind!r} is already registered")
+        BODY_TYPES[kind] = builder
+        return builder
+
+    return decorate
+
+
+def _load_types() -> None:
+    for module in _BODY_MODULES:
+        importlib.import_module(module)
+
+
+def build_body(table: Table, context: BuildContext) -> tuple[str, Body]:
+    """Read one ``[[body]]`` table: its ``name`` and the built body."""
+    _load_types()
+    if not BODY_TYPES:
+        raise SceneError(table.path, "no body types are available")
+    name = table.get("name", _name)
+    kind = table.get("type", one_of(*sorted(BODY_TYPES)))
+    body = BODY_TYPES[kind](table, context)
+    table.finish()
+    if not isinstance(body, Body):
+        raise TypeError(f"builder of body type {kind!r} returned {type(body).__name__}")
+    return name, body
+
+
+def _name(value, path):
+    if not isinstance(value, str) or not value:
+        raise SceneError(path, f"must be a non-empty string, got {value!r}")
+    return value
