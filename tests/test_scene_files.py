@@ -178,3 +178,16 @@ def test_render_resolution_is_per_call_and_defaults_to_the_camera():
     assert scene.render((32, 18)).shape == (18, 32, 3)
     assert scene.render().shape == (30, 40, 3)  # not the size asked for last time
     assert scene.render((32, 18)).shape == (18, 32, 3)
+
+
+def test_a_visible_box_collider_is_drawn_with_its_full_size_and_rotation():
+    text = scene_with(
+        '[[collider]]\ntype = "box"\ncenter = [0, 1, 0]\nsize = [2, 0.5, 1]\n'
+        "rotation = [0, 30, 0]\nvisible = true\n"
+    )
+    scene = load_scene(text)
+    (box,) = scene.objects
+    assert box.kind == "box"
+    np.testing.assert_allclose(box.params["size"], (2.0, 0.5, 1.0))
+    np.testing.assert_allclose(box.params["center"], (0.0, 1.0, 0.0))
+    assert scene.render((32, 18)).shape == (18, 32, 3)

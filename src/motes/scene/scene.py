@@ -323,7 +323,7 @@ def _collider_object(collider, tint) -> SceneObject:
         "box",
         {
             "center": tuple(collider.center),
-            "size": tuple(collider.size),
+            "size": tuple(2.0 * np.asarray(collider.half_extent)),
             "matrix": np.asarray(collider.rotation),
         },
         tint,
