@@ -56,3 +56,46 @@ def implicit_step(
     lhs = s @ a @ s + (np.eye(3 * n) - s)
     y = np.linalg.solve(lhs, s @ (b - a @ z))
     return (z + y).reshape(n, 3)
+
+
+def aero_forces(x, v, faces, wind, air, time, frequencies, phases):
+    """Per-vertex drag + lift (n, 3) [N]: a third of each triangle's (Keckeisen 2004)."""
+    rho, cd, cl, amplitude = air
+    out = np.zeros((x.shape[1], 3))
+    speed = np.linalg.norm(wind)
+    for tri in faces:
+        p = x[:, tri].T
+        normal = np.cross(p[1] - p[0], p[2] - p[0])
+        area = 0.5 * np.linalg.norm(normal)
+        centroid = p.mean(axis=0)
+        lag = centroid @ wind / speed**2 if speed > 0 else 0.0
+        g = 1.0
+        if len(frequencies):
+            g += amplitude * np.mean(np.sin(2 * np.pi * frequencies * (time - lag) + phases))
+        w = g * np.asarray(wind) - v[:, tri].mean(axis=1)
+        if area == 0 or w @ w == 0:
+            continue
+        n = normal / (2 * area)
+        w_hat = w / np.linalg.norm(w)
+        cos = n @ w_hat
+        if cos < 0:
+            n, cos = -n, -cos
+        q = 0.5 * rho * area * (w @ w) * cos
+        f = q * cd * w_hat + q * cl * (n - cos * w_hat)
+        out[tri] += f / 3
+    return out
+
+
+def strain_limit(x, weight, pairs, rest, limit, iterations):
+    """Provot 1995 strain limiting, springs visited in the given order (Gauss-Seidel)."""
+    x = x.copy()
+    for _ in range(iterations):
+        for (a, b), s in zip(pairs, rest, strict=True):
+            d = x[:, a] - x[:, b]
+            length = np.linalg.norm(d)
+            total = weight[a] + weight[b]
+            if length > (1 + limit) * s and total > 0:
+                step = ((1 + limit) * s - length) / (length * total) * d
+                x[:, a] += weight[a] * step
+                x[:, b] -= weight[b] * step
+    return x

@@ -184,8 +184,9 @@ def _apply(m, i, vx, vy, vz):
 def _row_product(diag, off, row_ptr, cols, v, i):
     """Row ``i`` of ``A v``."""
     sx, sy, sz = _apply(diag, i, v[i, 0], v[i, 1], v[i, 2])
-    for slot in range(row_ptr[i], row_ptr[i + 1]):
-        j = cols[slot]
+    # Unsigned indices: Numba then skips negative-index wraparound (see _jit.block_bounds).
+    for slot in range(np.uint64(row_ptr[i]), np.uint64(row_ptr[i + 1])):
+        j = np.uint64(cols[slot])
         ax, ay, az = _apply(off, slot, v[j, 0], v[j, 1], v[j, 2])
         sx += ax
         sy += ay
@@ -207,15 +208,20 @@ def matvec_kernel(diag, off, row_ptr, cols, v, out):
 
 
 @parallel_kernel
-def pcg_kernel(diag, off, row_ptr, cols, inv_diag, filt, b, z, tolerance, max_iterations, dv, work):
+def pcg_kernel(
+    diag, off, row_ptr, cols, inv_diag, filt, b, start, tolerance, max_iterations, dv, work
+):
     """Baraff & Witkin's modified preconditioned conjugate gradients (1998, §5.3).
 
     Solves ``S (A Δv - b) = 0`` with ``(I - S) Δv = (I - S) z``, where ``S`` (``filt``,
     ``(n, 9)``: one symmetric projection per particle) removes the constrained directions
     and ``z`` holds the prescribed velocity changes there. The preconditioner is the
-    inverse of ``A``'s diagonal blocks (block Jacobi). Stops when the preconditioned
-    residual ``rᵀP⁻¹r`` falls below ``tolerance²`` times its initial value, or after
-    ``max_iterations``.
+    inverse of ``A``'s diagonal blocks (block Jacobi). ``start`` is the first iterate: it
+    must equal ``z`` in the constrained directions (any free part is a warm start).
+    Stops when the preconditioned residual ``rᵀP⁻¹r`` falls below ``tolerance²`` times
+    ``max((Sb)ᵀP⁻¹(Sb), r0ᵀP⁻¹r0)`` (Baraff & Witkin's criterion relative to the
+    right-hand side, or to the first residual when a prescribed motion alone drives the
+    system), or after ``max_iterations``.
 
     ``work`` is scratch of shape ``(4, n, 3)``. Returns ``(iterations, delta0, delta)``;
     ``delta`` is NaN when the iteration broke down (a non-positive curvature ``cᵀAc``:
@@ -228,16 +234,21 @@ def pcg_kernel(diag, off, row_ptr, cols, inv_diag, filt, b, z, tolerance, max_it
     c = work[1]
     q = work[2]
     s = work[3]
-    # Δv = z; r = S (b - A z); c = S P⁻¹ r
+    # Δv = start; r = S (b - A Δv); c = S P⁻¹ r
+    scale = np.zeros(blocks)
     for blk in numba.prange(blocks):
-        start, stop = block_bounds(blk, n)
+        first, stop = block_bounds(blk, n)
         total = 0.0
-        for i in range(start, stop):
-            dv[i, 0] = z[i, 0]
-            dv[i, 1] = z[i, 1]
-            dv[i, 2] = z[i, 2]
-        for i in range(start, stop):
-            ax, ay, az = _row_product(diag, off, row_ptr, cols, z, i)
+        rhs = 0.0
+        for i in range(first, stop):
+            dv[i, 0] = start[i, 0]
+            dv[i, 1] = start[i, 1]
+            dv[i, 2] = start[i, 2]
+        for i in range(first, stop):
+            fx, fy, fz = _apply(filt, i, b[i, 0], b[i, 1], b[i, 2])
+            px, py, pz = _apply(inv_diag, i, fx, fy, fz)
+            rhs += fx * px + fy * py + fz * pz
+            ax, ay, az = _row_product(diag, off, row_ptr, cols, start, i)
             rx, ry, rz = _apply(filt, i, b[i, 0] - ax, b[i, 1] - ay, b[i, 2] - az)
             r[i, 0] = rx
             r[i, 1] = ry
@@ -249,10 +260,13 @@ def pcg_kernel(diag, off, row_ptr, cols, inv_diag, filt, b, z, tolerance, max_it
             c[i, 2] = cz
             total += rx * cx + ry * cy + rz * cz
         partial[blk] = total
+        scale[blk] = rhs
     delta = 0.0
+    reference = 0.0
     for blk in range(blocks):
         delta += partial[blk]
-    delta0 = delta
+        reference += scale[blk]
+    delta0 = max(delta, reference)
     threshold = tolerance * tolerance * delta0
     iterations = 0
     while delta > threshold and iterations < max_iterations:
