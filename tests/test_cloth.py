@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import motes as mo
-from motes.cloth import Cloth, Path, SpringFamily, Wind, topology
+from motes.cloth import Airflow, Cloth, Keyframes, SpringFamily, topology
 from motes.cloth.kernels import (
     aero_triangle_kernel,
     collide_kernel,
@@ -48,7 +48,7 @@ def test_aero_kernel_matches_its_twin():
     top = topology.grid(7, 5, 1.0, 0.8)
     x = np.ascontiguousarray(top.vertices.T + rng.normal(scale=0.05, size=(3, 35)))
     v = rng.normal(size=(3, 35))
-    wind = Wind((3.0, 0.5, -1.0), gust=0.4, gusts=3, seed=2)
+    wind = Airflow((3.0, 0.5, -1.0), gust=0.4, gusts=3, seed=2)
     out = np.empty((3, len(top.faces)))
     aero_triangle_kernel(
         *x, *v, top.faces, wind.velocity, wind.packed(), 0.7, wind.frequencies, wind.phases, out
@@ -157,7 +157,7 @@ def test_pins_hold_and_handles_follow_their_path():
     left, right = top[:4], top[4:]
     start = cloth.position.copy()
     cloth.pin(left)
-    path = Path([0.0, 1.0], [[0.0, 0.0, 0.0], [0.5, 0.2, 0.0]])
+    path = Keyframes([0.0, 1.0], [[0.0, 0.0, 0.0], [0.5, 0.2, 0.0]])
     cloth.move(right, path)
     for _ in range(30):
         cloth.step(1 / 60)
@@ -220,7 +220,7 @@ def test_strain_limit_keeps_a_hanging_cloth_from_stretching():
         ({"strain_limit": -0.1}, "strain_limit must be > 0"),
         ({"scheme": "leapfrog"}, "scheme must be one of"),
         ({"thickness": -1.0}, "thickness must be >= 0"),
-        ({"wind": (1, 0, 0)}, "wind must be a Wind"),
+        ({"wind": (1, 0, 0)}, "wind must be a Airflow"),
         ({"colliders": [1]}, "colliders must hold Collider"),
     ],
 )
@@ -235,4 +235,4 @@ def test_bad_mesh_input():
     with pytest.raises(ValueError, match="non-zero area"):
         Cloth(np.zeros((3, 3)), [[0, 1, 2]])
     with pytest.raises(ValueError, match="strictly increasing"):
-        Path([1.0, 0.0], [[0, 0, 0], [1, 0, 0]])
+        Keyframes([1.0, 0.0], [[0, 0, 0], [1, 0, 0]])

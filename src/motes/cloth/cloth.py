@@ -27,7 +27,7 @@ from ..collide.colliders import Collider, pack
 from ..forces.springs import Springs
 from ..integrate.implicit import ConstraintFilter, ImplicitEuler, SolveReport
 from . import topology
-from .drivers import Path, Wind
+from .drivers import Airflow, Keyframes
 from .kernels import (
     aero_triangle_kernel,
     collide_kernel,
@@ -86,7 +86,7 @@ class Cloth:
         [m/s²].
     air_damping : float
         Drag per unit mass >= 0 [1/s] on absolute velocity (``f = -c m v``), implicit.
-    wind : Wind, optional
+    wind : Airflow, optional
         Aerodynamic drag and lift per triangle.
     colliders : sequence of Collider
         Planes, spheres, boxes; their friction and restitution apply.
@@ -115,7 +115,7 @@ class Cloth:
         bending=SpringFamily(5.0, 0.01),
         gravity=(0.0, -9.81, 0.0),
         air_damping: float = 0.1,
-        wind: Wind | None = None,
+        wind: Airflow | None = None,
         colliders=(),
         thickness: float = 0.005,
         strain_limit: float | None = 0.1,
@@ -169,8 +169,8 @@ class Cloth:
 
         self.gravity = check.vector("gravity", gravity)
         self.air_damping = check.non_negative("air_damping", air_damping)
-        if wind is not None and not isinstance(wind, Wind):
-            raise TypeError(f"wind must be a Wind, got {wind!r}")
+        if wind is not None and not isinstance(wind, Airflow):
+            raise TypeError(f"wind must be a Airflow, got {wind!r}")
         self.wind = wind
         self.colliders = list(colliders)
         for c in self.colliders:
@@ -193,7 +193,7 @@ class Cloth:
         self.velocity = np.zeros((3, self.n))
         self.time = 0.0
         self.constraints = ConstraintFilter(self.n)
-        self._handles: list[tuple[np.ndarray, np.ndarray, Path]] = []
+        self._handles: list[tuple[np.ndarray, np.ndarray, Keyframes]] = []
         self._tri_force = np.empty((3, len(faces)))
         self.last_report: SolveReport | None = None
 
@@ -250,11 +250,11 @@ class Cloth:
         """Hold ``indices`` where they are."""
         self.constraints.pin(indices)
 
-    def move(self, indices, path: Path) -> None:
+    def move(self, indices, path: Keyframes) -> None:
         """Make ``indices`` a handle: from now on they follow their current positions
         translated by ``path(t) - path(now)``."""
-        if not isinstance(path, Path):
-            raise TypeError(f"path must be a Path, got {path!r}")
+        if not isinstance(path, Keyframes):
+            raise TypeError(f"path must be a Keyframes, got {path!r}")
         idx = np.atleast_1d(np.asarray(indices, dtype=np.int64))
         self.constraints.pin(idx)
         anchor = self.position[:, idx] - path(self.time)[:, None]

@@ -7,7 +7,7 @@ import numpy as np
 from .. import _validate as check
 
 
-class Path:
+class Keyframes:
     """A piecewise-linear translation through keyframes, held before the first and after
     the last.
 
@@ -36,10 +36,10 @@ class Path:
         return np.array([np.interp(time, self.times, self.offsets[:, k]) for k in range(3)])
 
     def __repr__(self) -> str:
-        return f"Path({len(self.times)} keyframes, {self.times[0]:g}-{self.times[-1]:g} s)"
+        return f"Keyframes({len(self.times)} keyframes, {self.times[0]:g}-{self.times[-1]:g} s)"
 
 
-class Wind:
+class Airflow:
     """Air moving at ``velocity`` with travelling gusts, for the aerodynamic forces.
 
     The wind at a point ``c`` and time ``t`` is ``velocity · g(t - c·û/|u|)`` with
@@ -88,4 +88,4 @@ class Wind:
         return np.array([self.air_density, self.drag, self.lift, self.gust])
 
     def __repr__(self) -> str:
-        return f"Wind({self.velocity.tolist()}, gust={self.gust})"
+        return f"Airflow({self.velocity.tolist()}, gust={self.gust})"
