@@ -46,6 +46,7 @@ from .forces import (
     Vortex,
     Wind,
 )
+from .hair import Hair, Head
 from .hierarchy import SpawnOnEvent
 from .integrate import Integrator
 from .integrate.implicit import ConstraintFilter, ImplicitEuler, SolverError
@@ -98,6 +99,8 @@ __all__ = [
     "Function",
     "Gradient",
     "Gravity",
+    "Hair",
+    "Head",
     "ImplicitEuler",
     "Integrator",
     "IntensityBelow",

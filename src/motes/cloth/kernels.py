@@ -197,22 +197,23 @@ def edge_colors_kernel(pairs, n):
     return colors
 
 
-@parallel_kernel
+@serial_kernel
 def strain_kernel(x, y, z, weight, pairs, rest, color_ptr, limit, iterations):
     """Provot (1995) strain limiting, Gauss-Seidel over colours of springs.
 
     A spring longer than ``(1 + limit) · rest`` is shortened to that length, its ends
     moving along it in proportion to their weights ``w`` (inverse masses; 0 for pinned
     particles). Springs are ordered by colour (``color_ptr`` (c + 1,) offsets); no two
-    springs of one colour share a particle, so each colour is corrected in parallel
-    without races and the next colour sees the result.
+    springs of one colour share a particle, so the order within a colour does not
+    matter and the next colour sees the result. Serial: a colour is a few thousand
+    springs, too little work to pay for a parallel region per colour and pass.
     """
     colors = color_ptr.shape[0] - 1
     for _ in range(iterations):
         for color in range(colors):
             first = color_ptr[color]
             count = color_ptr[color + 1] - first
-            for block in numba.prange(block_count(count)):
+            for block in range(block_count(count)):
                 start, stop = block_bounds(block, count)
                 for j in range(start, stop):
                     k = first + j

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .._jit import BLOCK, block_bounds, block_count, device, parallel_kernel
+from .._jit import BLOCK, block_bounds, block_count, device, parallel_kernel, serial_kernel
 
 
 @parallel_kernel
@@ -207,7 +207,7 @@ def matvec_kernel(diag, off, row_ptr, cols, v, out):
             out[i, 2] = sz
 
 
-@parallel_kernel
+@serial_kernel
 def pcg_kernel(
     diag, off, row_ptr, cols, inv_diag, filt, b, start, tolerance, max_iterations, dv, work
 ):
@@ -223,6 +223,12 @@ def pcg_kernel(
     right-hand side, or to the first residual when a prescribed motion alone drives the
     system), or after ``max_iterations``.
 
+    Serial on purpose: an iteration is four short passes separated by reductions, and
+    with other processes on the cores every parallel region waits for a time slice
+    (measured on the shared 2-core machine: 2,000 hair strands took 500 ms per solve
+    with two threads and 12 ms with one). The passes keep the fixed ``BLOCK`` partial
+    sums, so the result is the same as a parallel version would give.
+
     ``work`` is scratch of shape ``(4, n, 3)``. Returns ``(iterations, delta0, delta)``;
     ``delta`` is NaN when the iteration broke down (a non-positive curvature ``cᵀAc``:
     ``A`` not positive definite on the free directions).
@@ -236,7 +242,7 @@ def pcg_kernel(
     s = work[3]
     # Δv = start; r = S (b - A Δv); c = S P⁻¹ r
     scale = np.zeros(blocks)
-    for blk in numba.prange(blocks):
+    for blk in range(blocks):
         first, stop = block_bounds(blk, n)
         total = 0.0
         rhs = 0.0
@@ -271,7 +277,7 @@ def pcg_kernel(
     iterations = 0
     while delta > threshold and iterations < max_iterations:
         # q = S A c; curvature cᵀq
-        for blk in numba.prange(blocks):
+        for blk in range(blocks):
             start, stop = block_bounds(blk, n)
             total = 0.0
             for i in range(start, stop):
@@ -288,7 +294,7 @@ def pcg_kernel(
         if not curvature > 0.0:
             return iterations, delta0, np.nan
         alpha = delta / curvature
-        for blk in numba.prange(blocks):
+        for blk in range(blocks):
             start, stop = block_bounds(blk, n)
             total = 0.0
             for i in range(start, stop):
@@ -306,7 +312,7 @@ def pcg_kernel(
         for blk in range(blocks):
             delta += partial[blk]
         beta = delta / previous
-        for blk in numba.prange(blocks):
+        for blk in range(blocks):
             start, stop = block_bounds(blk, n)
             for i in range(start, stop):
                 cx, cy, cz = _apply(
