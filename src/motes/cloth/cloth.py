@@ -193,7 +193,7 @@ class Cloth:
         self.velocity = np.zeros((3, self.n))
         self.time = 0.0
         self.constraints = ConstraintFilter(self.n)
-        self._handles: list[tuple[np.ndarray, np.ndarray, Keyframes]] = []
+        self._handles: list[tuple] = []
         self._tri_force = np.empty((3, len(faces)))
         self.last_report: SolveReport | None = None
 
@@ -250,23 +250,30 @@ class Cloth:
         """Hold ``indices`` where they are."""
         self.constraints.pin(indices)
 
-    def move(self, indices, path: Keyframes) -> None:
-        """Make ``indices`` a handle: from now on they follow their current positions
-        translated by ``path(t) - path(now)``."""
+    def move(self, indices, path: Keyframes, *, weights=None) -> None:
+        """Make ``indices`` a handle: from now on particle ``i`` follows its current
+        position translated by ``w_i (path(t) - path(now))``.
+
+        ``weights`` (k,) default to 1; a taper (0 at one end of a curtain rail, 1 at the
+        other) gathers the cloth as it is pulled.
+        """
         if not isinstance(path, Keyframes):
-            raise TypeError(f"path must be a Keyframes, got {path!r}")
+            raise TypeError(f"path must be Keyframes, got {path!r}")
         idx = np.atleast_1d(np.asarray(indices, dtype=np.int64))
+        w = np.ones(idx.size) if weights is None else np.asarray(weights, dtype=np.float64)
+        if w.shape != idx.shape or not np.all(np.isfinite(w)):
+            raise ValueError(f"weights must be finite with shape {idx.shape}, got {w.shape}")
         self.constraints.pin(idx)
-        anchor = self.position[:, idx] - path(self.time)[:, None]
-        self._handles.append((idx, anchor, path))
+        anchor = self.position[:, idx] - w * path(self.time)[:, None]
+        self._handles.append((idx, anchor, path, w))
 
     def release(self, indices) -> None:
         """Free pinned or handled particles."""
         idx = np.atleast_1d(np.asarray(indices, dtype=np.int64))
         self.constraints.release(idx)
         self._handles = [
-            (i[keep], a[:, keep], p)
-            for i, a, p in self._handles
+            (i[keep], a[:, keep], p, w[keep])
+            for i, a, p, w in self._handles
             if (keep := ~np.isin(i, idx)).any()
         ]
 
@@ -322,8 +329,8 @@ class Cloth:
                 numba.set_num_threads(restore)
 
     def _step(self, h: float) -> None:
-        for idx, anchor, path in self._handles:
-            target = anchor + path(self.time + h)[:, None]
+        for idx, anchor, path, w in self._handles:
+            target = anchor + w * path(self.time + h)[:, None]
             self.constraints.velocity[:, idx] = (target - self.position[:, idx]) / h
         external = self.external_force()
         if self.scheme == Scheme.IMPLICIT_EULER:

@@ -95,8 +95,8 @@ class Head:
 def scalp_directions(count: int, *, seed: int = 0, coverage: float = 0.55) -> np.ndarray:
     """``count`` unit vectors spread over the top and back of a head (y up, face +z).
 
-    Uniform on the sphere cap ``y >= 1 - 2·coverage`` minus the face (a cone of 50°
-    around +z below the hairline at y = 0.35), drawn from ``seed``.
+    Uniform on the sphere cap ``y >= 1 - 2·coverage`` minus the face and temples (the
+    front half, ``z > -0.2``, below the crown at ``y = 0.85``), drawn from ``seed``.
     """
     rng = np.random.default_rng(check.integer("seed", seed, low=0))
     out = np.empty((0, 3))
@@ -105,7 +105,7 @@ def scalp_directions(count: int, *, seed: int = 0, coverage: float = 0.55) -> np
         phi = rng.uniform(0, 2 * np.pi, 2 * count)
         r = np.sqrt(1 - y * y)
         d = np.stack([r * np.cos(phi), y, r * np.sin(phi)], 1)
-        face = (d[:, 2] > np.cos(np.radians(50))) & (d[:, 1] < 0.35)
+        face = (d[:, 2] > -0.2) & (d[:, 1] < 0.85)
         out = np.concatenate([out, d[~face]])
     return out[:count]
 
