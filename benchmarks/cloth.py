@@ -16,7 +16,9 @@ corners, falling from rest. Figures, all measured in the same run:
   semi-implicit Euler) stays stable over a fixed simulated time, found by bisection on
   log h, the cost of its step, and simulated seconds per wall-clock second;
 - **speed-up**: implicit simulated-seconds-per-wall-second over explicit Euler's (the
-  target is >= 5×), and over semi-implicit Euler's.
+  target is >= 5×), and over semi-implicit Euler's;
+- **hair**: milliseconds per step of 2,000 strands of 10 particles on a turning head at
+  h = 1/60 s (the ``hair`` scene's strands, twice as many).
 
 "Stable" means: after the simulated time, every value is finite, no particle moves faster
 than 20 m/s and no structural spring is stretched past 100 %. Longer windows can only
@@ -34,7 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from motes.cloth import Cloth
+from motes.cloth import Cloth, Keyframes
+from motes.hair import Hair, Head
 
 from ._common import benchmark_main, machine, table
 
@@ -50,14 +53,15 @@ class Sizes:
     window: float  #: simulated seconds an explicit run must survive
     bisections: int
     explicit_steps: int  #: explicit steps timed for the cost per step
+    strands: int  #: hair strands
 
     @classmethod
     def full(cls) -> Sizes:
-        return cls(64, 128, 60, 3, 0.25, 7, 300)
+        return cls(64, 128, 60, 3, 0.25, 7, 300, 2000)
 
     @classmethod
     def quick(cls) -> Sizes:
-        return cls(16, 32, 10, 1, 0.1, 3, 30)
+        return cls(16, 32, 10, 1, 0.1, 3, 30, 200)
 
 
 def cloth(side: int, scheme: str = "implicit_euler") -> Cloth:
@@ -121,6 +125,26 @@ def time_explicit(side: int, scheme: str, h: float, sizes: Sizes) -> float:
     for _ in range(sizes.explicit_steps):
         c.step(h)
     return (time.perf_counter() - start) / sizes.explicit_steps
+
+
+def time_hair(sizes: Sizes) -> dict:
+    """Mean wall time per step of ``sizes.strands`` strands on a turning, nodding head."""
+    turn = Keyframes([0.0, 0.5, 1.0], [[0, 0, 0], [60, 0, 0], [0, 25, 0]])
+    means, iterations = [], []
+    for _ in range(sizes.runs + 1):  # the first run loads the kernels
+        hair = Hair(
+            Head((0.0, 1.6, 0.0), 0.1, rotation=turn), strands=sizes.strands, particles=10, seed=1
+        )
+        start = time.perf_counter()
+        for _ in range(sizes.steps):
+            hair.step(H)
+            iterations.append(hair.last_report.iterations)
+        means.append((time.perf_counter() - start) / sizes.steps)
+    return {
+        "ms": 1e3 * min(means[1:]),
+        "particles": hair.n,
+        "iterations": float(np.mean(iterations)),
+    }
 
 
 def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
@@ -208,6 +232,26 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
             rows,
             title=f"2. Explicit steps on the {sizes.small}×{sizes.small} cloth "
             f"(stable over {sizes.window} s)",
+        )
+    )
+    hair = time_hair(sizes)
+    figures |= {
+        "hair_2000_ms": hair["ms"],
+        "hair_2000_iterations": hair["iterations"],
+        "hair_2000_realtime_factor": H / (hair["ms"] * 1e-3),
+    }
+    out()
+    out(
+        table(
+            [
+                ("strands", f"{sizes.strands:,} × 10 particles ({hair['particles']:,})"),
+                (
+                    "step",
+                    f"{hair['ms']:8.2f} ms at h = 1/60 s, {hair['iterations']:.0f} CG "
+                    f"iterations: {1e3 / hair['ms']:.0f} steps per s",
+                ),
+            ],
+            title="3. Hair on a turning head",
         )
     )
     return figures

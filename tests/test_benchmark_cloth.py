@@ -12,6 +12,7 @@ REQUIRED = (
     "implicit_vs_explicit_speedup",
     "implicit_vs_semi_implicit_speedup",
     "explicit_64_largest_stable_step",
+    "hair_2000_ms",
 )
 
 
