@@ -207,6 +207,7 @@ class Cloth:
         size=(1.0, 1.0),
         origin=(0.0, 0.0, 0.0),
         rotation=None,
+        ripple=(0.0, 1.0),
         **options,
     ) -> Cloth:
         """A rectangular ``nx`` × ``ny`` cloth with structural, shear and bending springs.
@@ -214,7 +215,10 @@ class Cloth:
         In its own frame the cloth lies in the x-y plane with its top-left corner at the
         origin, columns along +x and rows along -y (row 0 on top: a curtain or flag
         hanging from its top edge). ``rotation`` (3, 3) (columns: the frame's axes in
-        world coordinates) and ``origin`` [m] place it. ``options`` go to :class:`Cloth`.
+        world coordinates) and ``origin`` [m] place it. ``ripple = (amplitude, wavelength)``
+        [m] pleats the rest shape along its normal, ``z = a sin(2π x / λ)`` (a curtain's
+        folds; also what lets a compressed cloth buckle instead of shrinking in its plane).
+        ``options`` go to :class:`Cloth`.
         """
         nx = check.integer("nx", nx, low=2)
         ny = check.integer("ny", ny, low=2)
@@ -222,8 +226,12 @@ class Cloth:
         rot = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)
         if rot.shape != (3, 3) or not np.allclose(rot.T @ rot, np.eye(3), atol=1e-6):
             raise ValueError("rotation must be an orthonormal (3, 3) matrix")
+        amplitude = check.non_negative("ripple[0]", ripple[0])
+        wavelength = check.positive("ripple[1]", ripple[1])
         top = topology.grid(nx, ny, width, height)
-        world = top.vertices @ rot.T + check.vector("origin", origin)
+        local = top.vertices.copy()
+        local[:, 2] = amplitude * np.sin(2 * np.pi * local[:, 0] / wavelength)
+        world = local @ rot.T + check.vector("origin", origin)
         top = topology.Topology(world, top.faces, top.structural, top.shear, top.bending)
         cloth = cls(world, top.faces, springs=top, **options)
         cloth.grid_shape = (ny, nx)

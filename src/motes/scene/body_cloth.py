@@ -186,6 +186,7 @@ def build_cloth(table: Table, context: BuildContext) -> ClothBody:
             size=table.get("size", vector(2), (1.0, 1.0)),
             origin=table.get("origin", vector(), (0.0, 0.0, 0.0)),
             rotation=table.get("rotation", euler_rotation, None),
+            ripple=table.get("ripple", vector(2), (0.0, 1.0)),
             **options,
         )
     else:
