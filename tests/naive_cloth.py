@@ -44,6 +44,7 @@ def implicit_step(
     f, dfdx, dfdv = spring_terms(x, v, pairs, rest, ks, kd)
     if external is not None:
         f += external.T
+    f -= np.broadcast_to(damping, (n,))[:, None] * v.T  # linear drag -c v
     m = np.repeat(mass, 3)
     a = np.diag(m + h * np.broadcast_to(damping, (n,)).repeat(3)) - h * dfdv - h * h * dfdx
     b = h * (f.ravel() + h * dfdx @ v.T.ravel())

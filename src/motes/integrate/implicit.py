@@ -343,6 +343,8 @@ class ImplicitEuler:
         f0 = np.zeros((3, n))
         if external is not None:
             f0 += external
+        damping = np.asarray(damping, dtype=np.float64)
+        f0 -= damping * velocity  # the drag at v0; its derivative -c I goes in A
         jacobians = []
         for force in others:
             force.accumulate(store, position, velocity, time, f0)
@@ -496,7 +498,8 @@ def advance_store(
     w = store.raw("inv_mass")[:n].astype(np.float64) if store.has("inv_mass") else np.ones(n)
     free = w > 0
     mass = np.where(free, 1.0 / np.where(free, w, 1.0), 1.0)
-    external = free * mass * p[0:3, None] + p[4:7, None] - p[3] * v
+    # Drag toward the wind: -k v is the implicit ``damping``, k·wind an explicit force.
+    external = free * mass * p[0:3, None] + p[4:7, None]
     if p[7] > 0:
         rel = v - p[8:11, None]
         external -= p[7] * np.linalg.norm(rel, axis=0) * rel
