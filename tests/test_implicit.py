@@ -254,3 +254,21 @@ def test_system_product_matches_the_dense_matrix():
     extra.accumulate(None, x, v, 0.0, generic)
     b = h * (f0 + generic.T.ravel() + h * (dfdx + gx) @ v.T.ravel())
     np.testing.assert_allclose(dense @ (v1 - v).T.ravel(), b, atol=1e-9 * np.abs(b).max())
+
+
+def test_particle_system_drag_is_implicit():
+    # Linear drag toward a wind, f = -k (v - w): backward Euler gives exactly
+    # v1 = (m v0 + h k w) / (m + h k), stable for any h (explicit Euler overshoots w
+    # once h k / m > 1 and diverges past 2; here h k / m = 5).
+    k, h, wind = 10.0, 0.5, np.array([2.0, 0.0, -1.0])
+    system = mo.ParticleSystem(4, integrator="implicit_euler", dtype=np.float64)
+    system.store.spawn(1)
+    system["lifetime"] = np.inf
+    system["velocity"] = [[0.0, 3.0, 0.0]]
+    system.add(mo.Drag(k, wind=wind))
+    v = np.array([0.0, 3.0, 0.0])
+    for _ in range(3):
+        system.step(h)
+        v = (v + h * k * wind) / (1.0 + h * k)
+        # One particle: the block-Jacobi preconditioner is the exact inverse.
+        np.testing.assert_allclose(system["velocity"][0], v, rtol=1e-12)
