@@ -1,13 +1,11 @@
 """Hair: strands as particle chains rooted on a moving spherical head.
 
-Each strand is a chain of particles joined by stretch springs; bending is resisted by
-bending springs across two segments (``i`` to ``i + 2``; Rosenblum, Carlson & Tripp
-1991). For segments of length ``s`` meeting at angle ``θ`` the bending spring is
-shortened by ``2s(1 - cos(θ/2))`` ≈ ``s θ²/4``: its force grows with the angle, but
-quadratically, so small bends are resisted weakly (a force linear in the angle would
-need its own Jacobian; springs use the implicit integrator's compiled fast path). The
-bending springs must be much softer than the stretch springs, or they bend the strand
-by stretching its segments instead.
+Each strand is a chain of particles joined by stretch springs. Bending is resisted by a
+force proportional to the angle between consecutive segments: the energy
+``½ k_b |x_i - 2x_j + x_k|²`` of each joint (``2s sin(θ/2) ≈ sθ`` for segments of
+length ``s`` at angle ``θ``), written exactly as three zero-rest-length springs
+(:mod:`motes.hair.bending`) so that the implicit integrator assembles it in its compiled
+spring path.
 
 The first two particles of each strand are the follicle: they move rigidly with the head
 (constraint-filtered, exactly), which fixes the root direction. The rest collide with
@@ -25,8 +23,8 @@ from .. import _validate as check
 from ..cloth.drivers import Keyframes
 from ..cloth.kernels import collide_kernel, edge_colors_kernel, strain_kernel
 from ..collide.colliders import Collider, Sphere, pack
-from ..forces.springs import Springs
 from ..integrate.implicit import ConstraintFilter, ImplicitEuler, SolveReport, solver_threads
+from .bending import StencilSprings, angle_bending
 
 
 def euler_matrix(angles_deg) -> np.ndarray:
@@ -126,8 +124,11 @@ class Hair:
         Root directions from the head's centre; default :func:`scalp_directions`.
     mass : float
         Mass per particle > 0 [kg].
-    stretch, bending : (float, float)
-        Stiffness [N/m] and damping [N s/m] of the stretch and skip (bending) springs.
+    stretch : (float, float)
+        Stiffness [N/m] and damping [N s/m] of the stretch springs.
+    bending : (float, float)
+        Bending stiffness ``k_b`` [N/m] of ``½ k_b |x_i - 2x_j + x_k|²`` per joint, and a
+        damping [N s/m] along ``(i, k)``.
     stretch_limit : float or None
         Largest relative stretch after each step (Provot 1995), or None.
     air_damping : float
@@ -153,7 +154,7 @@ class Hair:
         directions=None,
         mass: float = 1e-4,
         stretch=(500.0, 0.02),
-        bending=(20.0, 0.002),
+        bending=(2.0, 0.001),
         stretch_limit: float | None = 0.02,
         air_damping: float = 1.0,
         gravity=(0.0, -9.81, 0.0),
@@ -202,14 +203,13 @@ class Hair:
         self._local = local.reshape(-1, 3)
         index = np.arange(self.n).reshape(s, p)
         stretch_pairs = np.stack([index[:, :-1].ravel(), index[:, 1:].ravel()], 1)
-        bend_pairs = np.stack([index[:, :-2].ravel(), index[:, 2:].ravel()], 1)
-        self.springs = Springs(
-            np.concatenate([stretch_pairs, bend_pairs]),
-            np.concatenate(
-                [np.full(len(stretch_pairs), segment), np.full(len(bend_pairs), 2 * segment)]
-            ),
-            np.concatenate([np.full(len(stretch_pairs), ks), np.full(len(bend_pairs), kb)]),
-            np.concatenate([np.full(len(stretch_pairs), kd), np.full(len(bend_pairs), kbd)]),
+        triples = np.stack([index[:, :-2].ravel(), index[:, 1:-1].ravel(), index[:, 2:].ravel()], 1)
+        b_pairs, b_rest, b_k, b_kd = angle_bending(triples, kb, kbd)
+        self.springs = StencilSprings(
+            np.concatenate([stretch_pairs, b_pairs]),
+            np.concatenate([np.full(len(stretch_pairs), segment), b_rest]),
+            np.concatenate([np.full(len(stretch_pairs), ks), b_k]),
+            np.concatenate([np.full(len(stretch_pairs), kd), b_kd]),
         )
         colors = edge_colors_kernel(stretch_pairs, self.n)
         order = np.argsort(colors, kind="stable")

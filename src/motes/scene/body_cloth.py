@@ -286,7 +286,7 @@ def build_hair(table: Table, context: BuildContext) -> HairBody:
         length=table.get("length", positive(), 0.25),
         mass=table.get("mass", positive(), 1e-4),
         stretch=table.get("stretch", vector(2), (500.0, 0.02)),
-        bending=table.get("bending", vector(2), (20.0, 0.002)),
+        bending=table.get("bending", vector(2), (2.0, 0.001)),
         stretch_limit=table.get("stretch_limit", number(0.0), 0.02) or None,
         air_damping=table.get("air_damping", number(0.0), 1.0),
         gravity=table.get("gravity", vector(), (0.0, -9.81, 0.0)),
