@@ -99,8 +99,9 @@ class Cloth:
     scheme : Scheme or str
         ``"implicit_euler"`` (default), ``"explicit_euler"`` or ``"semi_implicit_euler"``.
     solver : ImplicitEuler, optional
-        Solver settings for the implicit scheme; default tolerance 1e-2 (a 64×64 cloth
-        then ends a 1 s fall within 1.3 mm of a 1e-6 solve, at 55 % of the cost of 1e-3).
+        Solver settings for the implicit scheme; default tolerance 1e-2 (a 1 m, 64×64
+        cloth then ends a 1 s fall within 1.2 mm of a 1e-6 solve, with 54 iterations per
+        step against 80 at 1e-3 and 194 at 1e-6).
     """
 
     def __init__(
