@@ -30,3 +30,11 @@ def test_rendering_guide_examples_run(capsys):
     assert namespace["image"].std() > 5  # ground, crate, ball and blobs: not a flat image
     assert (namespace["out"] / "clip.gif").exists()
     assert "True" in capsys.readouterr().out
+
+
+def test_cloth_guide_examples_run(capsys):
+    namespace = run_blocks(DOCS / "cloth.md")
+    assert namespace["report"].converged
+    assert namespace["x"][1, 2] == 0.0  # restricted to the x-z plane
+    assert namespace["hair"].strands().shape == (200, 10, 3)
+    assert "True" in capsys.readouterr().out

@@ -10,6 +10,7 @@ True
 """
 
 from . import colliders, io, render, scene, shapes
+from .cloth import Airflow, Cloth, Keyframes, SpringFamily
 from .collide import Friction, Response
 from .emit import (
     Burst,
@@ -45,8 +46,10 @@ from .forces import (
     Vortex,
     Wind,
 )
+from .hair import Hair, Head
 from .hierarchy import SpawnOnEvent
 from .integrate import Integrator
+from .integrate.implicit import ConstraintFilter, ImplicitEuler, SolverError
 from .life import (
     AlphaBelow,
     ColorOverLife,
@@ -69,15 +72,18 @@ from .system import ParticleSystem
 __version__ = "0.1.0"
 
 __all__ = [
+    "Airflow",
     "AlphaBelow",
     "Attribute",
     "Background",
     "Burst",
     "CallbackForce",
     "Camera",
+    "Cloth",
     "ColorOverLife",
     "Cone",
     "Constant",
+    "ConstraintFilter",
     "CurlNoise",
     "Curve",
     "Direction",
@@ -93,9 +99,13 @@ __all__ = [
     "Function",
     "Gradient",
     "Gravity",
+    "Hair",
+    "Head",
+    "ImplicitEuler",
     "Integrator",
     "IntensityBelow",
     "Isotropic",
+    "Keyframes",
     "Normal",
     "ParticleEvent",
     "ParticleStore",
@@ -115,8 +125,10 @@ __all__ = [
     "ScreenScaled",
     "ShapeNormal",
     "SizeOverLife",
+    "SolverError",
     "SpawnOnEvent",
     "SpeedOverLife",
+    "SpringFamily",
     "Springs",
     "SpriteStyle",
     "Uniform",

@@ -28,6 +28,7 @@ from .collide.colliders import Collider, pack
 from .emit.emitter import Emitter
 from .forces.base import FieldForce, FieldTerms, Force
 from .integrate import Integrator
+from .integrate.implicit import ImplicitEuler, advance_store
 from .integrate.kernels import Scheme, acceleration_kernel, step_kernel
 from .integrate.multistage import rk4, velocity_verlet
 from .life.curves import _OverLife
@@ -110,6 +111,8 @@ class ParticleSystem:
         self._hits: np.ndarray | None = None
         self._no_hits = np.empty(1, dtype=np.int32)
         self._setup_cache: _StepSetup | None = None
+        #: Solver of the ``implicit_euler`` integrator (replace it to change tolerances).
+        self.implicit_solver = ImplicitEuler()
 
     # -- building -------------------------------------------------------------------
     def add(self, *items) -> ParticleSystem:
@@ -287,6 +290,9 @@ class ParticleSystem:
                 n, v, inv_mass, has_inv_mass, force, bool(self.forces), params, quadratic, out
             )
 
+        if self.integrator == Integrator.IMPLICIT_EULER:
+            advance_store(self.implicit_solver, store, self.forces, params, n, dt, self.time)
+            return
         x = store.raw("position")[:, :n]
         v = store.raw("velocity")[:, :n]
         if self.integrator == Integrator.RK4:

@@ -19,6 +19,8 @@ class Integrator(StrEnum):
                               (position Verlet, Jakobsen 2001; v = (x' - x)/h)
     ``velocity_verlet``       x += h v + h²/2 a;  v += h/2 (a + a(x'))             2
     ``rk4``                   classical Runge-Kutta on (x, v)                      4
+    ``implicit_euler``        (M - h ∂f/∂v - h² ∂f/∂x) Δv = h (f + h ∂f/∂x v)      1
+                              (Baraff & Witkin 1998; see :mod:`.implicit`)
     ========================  ==================================================  =====
 
     Position Verlet is run in its velocity form: the stored velocity stands for
@@ -36,6 +38,7 @@ class Integrator(StrEnum):
     VERLET = "verlet"
     VELOCITY_VERLET = "velocity_verlet"
     RK4 = "rk4"
+    IMPLICIT_EULER = "implicit_euler"
 
     @property
     def fused_scheme(self) -> Scheme:
@@ -49,6 +52,7 @@ _FUSED = {
     Integrator.VERLET: Scheme.VERLET,
     Integrator.VELOCITY_VERLET: Scheme.NONE,
     Integrator.RK4: Scheme.NONE,
+    Integrator.IMPLICIT_EULER: Scheme.NONE,
 }
 
 

@@ -1,0 +1,302 @@
+"""Hair: strands as particle chains rooted on a moving spherical head.
+
+Each strand is a chain of particles joined by stretch springs. Bending is resisted by a
+force proportional to the angle between consecutive segments: the energy
+``½ k_b |x_i - 2x_j + x_k|²`` of each joint (``2s sin(θ/2) ≈ sθ`` for segments of
+length ``s`` at angle ``θ``), written exactly as three zero-rest-length springs
+(:mod:`motes.hair.bending`) so that the implicit integrator assembles it in its compiled
+spring path.
+
+The first two particles of each strand are the follicle: they move rigidly with the head
+(constraint-filtered, exactly), which fixes the root direction. The rest collide with
+the head sphere (push-out with friction) and with any extra colliders. A step is one
+implicit Euler solve (Baraff & Witkin 1998) for all strands at once, then a Provot
+stretch limit on the stretch springs, then collisions.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .. import _validate as check
+from ..cloth.drivers import Keyframes
+from ..cloth.kernels import collide_kernel, edge_colors_kernel, strain_kernel
+from ..collide.colliders import Collider, Sphere, pack
+from ..integrate.implicit import ConstraintFilter, ImplicitEuler, SolveReport, solver_threads
+from .bending import StencilSprings, angle_bending
+
+
+def euler_matrix(angles_deg) -> np.ndarray:
+    """Rotation ``R_y(yaw) R_x(pitch) R_z(roll)`` from (yaw, pitch, roll) [degrees]:
+    yaw turns the head about the vertical, pitch nods it."""
+    yaw, pitch, roll = np.radians(np.asarray(angles_deg, dtype=np.float64))
+    cy, sy, cp, sp, cr, sr = (
+        np.cos(yaw),
+        np.sin(yaw),
+        np.cos(pitch),
+        np.sin(pitch),
+        np.cos(roll),
+        np.sin(roll),
+    )
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rx = np.array([[1, 0, 0], [0, cp, -sp], [0, sp, cp]])
+    rz = np.array([[cr, -sr, 0], [sr, cr, 0], [0, 0, 1]])
+    return ry @ rx @ rz
+
+
+class Head:
+    """A sphere that translates and rotates over time.
+
+    Parameters
+    ----------
+    center : (3,) array_like
+        Centre at rest [m].
+    radius : float
+        > 0 [m].
+    translation : Keyframes, optional
+        Offset of the centre [m] over time.
+    rotation : Keyframes, optional
+        (yaw, pitch, roll) [degrees] over time (see :func:`euler_matrix`).
+    friction : float
+        Friction of hair on the scalp, in [0, 1] (velocity scaling).
+    """
+
+    def __init__(
+        self,
+        center=(0.0, 0.0, 0.0),
+        radius: float = 0.1,
+        *,
+        translation=None,
+        rotation=None,
+        friction: float = 0.3,
+    ):
+        self.center = check.vector("center", center)
+        self.radius = check.positive("radius", radius)
+        for name, value in (("translation", translation), ("rotation", rotation)):
+            if value is not None and not isinstance(value, Keyframes):
+                raise TypeError(f"{name} must be Keyframes, got {value!r}")
+        self.translation = translation
+        self.rotation = rotation
+        self.friction = check.unit_interval("friction", friction)
+
+    def pose(self, time: float) -> tuple[np.ndarray, np.ndarray]:
+        """Rotation (3, 3) and centre (3,) [m] at ``time`` [s]."""
+        r = np.eye(3) if self.rotation is None else euler_matrix(self.rotation(time))
+        c = self.center + (0.0 if self.translation is None else self.translation(time))
+        return r, c
+
+    def __repr__(self) -> str:
+        return f"Head(center={self.center.tolist()}, radius={self.radius})"
+
+
+def scalp_directions(count: int, *, seed: int = 0, coverage: float = 0.55) -> np.ndarray:
+    """``count`` unit vectors spread over the top and back of a head (y up, face +z).
+
+    Uniform on the sphere cap ``y >= 1 - 2·coverage`` minus the face and temples (the
+    front half, ``z > -0.2``, below the crown at ``y = 0.85``), drawn from ``seed``.
+    """
+    rng = np.random.default_rng(check.integer("seed", seed, low=0))
+    out = np.empty((0, 3))
+    while len(out) < count:
+        y = rng.uniform(1 - 2 * coverage, 1.0, 2 * count)
+        phi = rng.uniform(0, 2 * np.pi, 2 * count)
+        r = np.sqrt(1 - y * y)
+        d = np.stack([r * np.cos(phi), y, r * np.sin(phi)], 1)
+        face = (d[:, 2] > -0.2) & (d[:, 1] < 0.85)
+        out = np.concatenate([out, d[~face]])
+    return out[:count]
+
+
+class Hair:
+    """Strands of hair on a :class:`Head`.
+
+    Parameters
+    ----------
+    head : Head
+    strands : int
+        Number of strands (>= 1).
+    particles : int
+        Particles per strand including the two root particles (>= 3).
+    length : float
+        Strand length [m] (> 0).
+    directions : (strands, 3) array_like, optional
+        Root directions from the head's centre; default :func:`scalp_directions`.
+    mass : float
+        Mass per particle > 0 [kg].
+    stretch : (float, float)
+        Stiffness [N/m] and damping [N s/m] of the stretch springs.
+    bending : (float, float)
+        Bending stiffness ``k_b`` [N/m] of ``½ k_b |x_i - 2x_j + x_k|²`` per joint, and a
+        damping [N s/m] along ``(i, k)``.
+    stretch_limit : float or None
+        Largest relative stretch after each step (Provot 1995), or None.
+    air_damping : float
+        Drag per unit mass >= 0 [1/s], implicit.
+    gravity : (3,) array_like
+        [m/s²].
+    thickness : float
+        Distance >= 0 [m] kept from the scalp and colliders.
+    colliders : sequence of Collider
+        Extra obstacles (shoulders, a floor).
+    solver : ImplicitEuler, optional
+    seed : int
+        For the default root directions.
+    """
+
+    def __init__(
+        self,
+        head: Head,
+        *,
+        strands: int = 500,
+        particles: int = 10,
+        length: float = 0.25,
+        directions=None,
+        mass: float = 1e-4,
+        stretch=(500.0, 0.02),
+        bending=(2.0, 0.001),
+        stretch_limit: float | None = 0.02,
+        air_damping: float = 1.0,
+        gravity=(0.0, -9.81, 0.0),
+        thickness: float = 0.004,
+        colliders=(),
+        solver: ImplicitEuler | None = None,
+        seed: int = 0,
+    ):
+        if not isinstance(head, Head):
+            raise TypeError(f"head must be a Head, got {head!r}")
+        self.head = head
+        s = check.integer("strands", strands, low=1)
+        p = check.integer("particles", particles, low=3)
+        self.length = check.positive("length", length)
+        if directions is None:
+            directions = scalp_directions(s, seed=seed)
+        d = check.points("directions", directions)
+        if len(d) != s:
+            raise ValueError(f"directions must have one row per strand ({s}), got {len(d)}")
+        norm = np.linalg.norm(d, axis=1, keepdims=True)
+        if np.any(norm == 0):
+            raise ValueError("directions must be non-zero")
+        d = d / norm
+        self.strand_count, self.per_strand = s, p
+        self.n = s * p
+        self.particle_mass = check.positive("mass", mass)
+        self.mass = np.full(self.n, self.particle_mass)
+        ks, kd = (check.non_negative(f"stretch[{k}]", v) for k, v in enumerate(stretch))
+        kb, kbd = (check.non_negative(f"bending[{k}]", v) for k, v in enumerate(bending))
+        self.stretch_limit = (
+            None if stretch_limit is None else check.positive("stretch_limit", stretch_limit)
+        )
+        self.air_damping = check.non_negative("air_damping", air_damping)
+        self.gravity = check.vector("gravity", gravity)
+        self.thickness = check.non_negative("thickness", thickness)
+        self.colliders = list(colliders)
+        for c in self.colliders:
+            if not isinstance(c, Collider):
+                raise TypeError(f"colliders must hold Collider objects, got {c!r}")
+        self.solver = solver if solver is not None else ImplicitEuler()
+
+        # Rest shape: straight out along the root direction, in the head's frame.
+        segment = self.length / (p - 1)
+        k = np.arange(p)
+        local = (head.radius + segment * k)[None, :, None] * d[:, None, :]  # (s, p, 3)
+        self._local = local.reshape(-1, 3)
+        index = np.arange(self.n).reshape(s, p)
+        stretch_pairs = np.stack([index[:, :-1].ravel(), index[:, 1:].ravel()], 1)
+        triples = np.stack([index[:, :-2].ravel(), index[:, 1:-1].ravel(), index[:, 2:].ravel()], 1)
+        b_pairs, b_rest, b_k, b_kd = angle_bending(triples, kb, kbd)
+        self.springs = StencilSprings(
+            np.concatenate([stretch_pairs, b_pairs]),
+            np.concatenate([np.full(len(stretch_pairs), segment), b_rest]),
+            np.concatenate([np.full(len(stretch_pairs), ks), b_k]),
+            np.concatenate([np.full(len(stretch_pairs), kd), b_kd]),
+        )
+        colors = edge_colors_kernel(stretch_pairs, self.n)
+        order = np.argsort(colors, kind="stable")
+        self._stretch_pairs = np.ascontiguousarray(stretch_pairs[order])
+        self._stretch_rest = np.full(len(stretch_pairs), segment)
+        self._color_ptr = np.concatenate([[0], np.cumsum(np.bincount(colors))]).astype(np.int64)
+
+        self._roots = index[:, :2].ravel()
+        self._root_local = self._local[self._roots]
+        self.constraints = ConstraintFilter(self.n)
+        self.constraints.pin(self._roots)
+        self._free = np.ones(self.n, dtype=bool)
+        self._free[self._roots] = False
+        self.time = 0.0
+        r, c = head.pose(0.0)
+        #: Positions [m] and velocities [m/s], float64 (3, n); strand ``j`` is particles
+        #: ``j * per_strand`` to ``(j + 1) * per_strand - 1``, root first.
+        self.position = np.ascontiguousarray((self._local @ r.T + c).T)
+        self.velocity = np.zeros((3, self.n))
+        self.last_report: SolveReport | None = None
+
+    def step(self, dt: float) -> None:
+        """Advance by ``dt`` seconds."""
+        h = check.positive("dt", dt)
+        restore = solver_threads(self.n)
+        try:
+            self._step(h)
+        finally:
+            if restore:
+                numba.set_num_threads(restore)
+
+    def _step(self, h: float) -> None:
+        r, c = self.head.pose(self.time + h)
+        target = (self._root_local @ r.T + c).T
+        self.constraints.velocity[:, self._roots] = (target - self.position[:, self._roots]) / h
+        external = self.mass[None, :] * self.gravity[:, None]
+        self.last_report = self.solver.step(
+            self.position,
+            self.velocity,
+            self.mass,
+            h,
+            forces=[self.springs],
+            external=external,
+            damping=self.air_damping * self.mass,
+            constraints=self.constraints,
+            time=self.time,
+        )
+        if self.stretch_limit is not None:
+            before = self.position.copy()
+            strain_kernel(
+                *self.position,
+                self._free / self.mass,
+                self._stretch_pairs,
+                self._stretch_rest,
+                self._color_ptr,
+                self.stretch_limit,
+                4,
+            )
+            self.velocity += (self.position - before) / h
+        scalp = Sphere(
+            c, self.head.radius + self.thickness, restitution=0.0, friction=self.head.friction
+        )
+        table, structure = pack([scalp, *self.colliders])
+        for row, collider in enumerate(self.colliders, start=1):
+            if structure[row][0] == 0:
+                table[row, 5] += self.thickness
+            else:
+                stop = 6 if structure[row][0] == 1 else 8
+                table[row, 5:stop] += -self.thickness if collider.inside else self.thickness
+        collide_kernel(
+            *self.position,
+            *self.velocity,
+            self._free,
+            np.asarray(structure, dtype=np.int64).reshape(-1, 4),
+            table,
+            h,
+        )
+        self.time += h
+
+    def strands(self) -> np.ndarray:
+        """Positions as (strands, particles, 3) [m]."""
+        return self.position.T.reshape(self.strand_count, self.per_strand, 3).copy()
+
+    def segment_lengths(self) -> np.ndarray:
+        """(strands, particles - 1) current segment lengths [m]."""
+        s = self.strands()
+        return np.linalg.norm(np.diff(s, axis=1), axis=2)
+
+    def __repr__(self) -> str:
+        return f"Hair({self.strand_count} strands × {self.per_strand} particles)"

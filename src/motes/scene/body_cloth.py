@@ -1,0 +1,304 @@
+"""``[[body]]`` types ``"cloth"`` and ``"hair"`` (keys documented in docs/scene-format.md).
+
+A cloth draws as a shaded mesh (the renderer lights both sides: normals are turned toward
+the viewer), hair as lines over a head sphere with a nose and eyes so that turning and
+nodding show. A cloth stepped explicitly may blow up: it is always drawn with
+each particle clamped to within ``blowup_distance`` of its start (so an explosion stays on
+screen as a spiky mess), and once the state is non-finite or 1000 times that far it
+stops stepping and is drawn in ``diverged_color``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..cloth import Airflow, Cloth, Keyframes, SpringFamily
+from ..hair import Hair, Head
+from ..integrate.implicit import ImplicitEuler
+from ..render import geometry
+from ..render.shading import Material
+from .bodies import Body, BuildContext, register
+from .parts import euler_rotation
+from .schema import (
+    SceneError,
+    Table,
+    array_of,
+    boolean,
+    build,
+    color,
+    integer,
+    number,
+    one_of,
+    positive,
+    string,
+    vector,
+)
+
+
+def _family(value, path) -> SpringFamily:
+    k, kd = vector(2)(value, path)
+    return build(path, SpringFamily, k, kd)
+
+
+def _solver(table: Table, tolerance: float) -> ImplicitEuler:
+    return build(
+        table.path,
+        ImplicitEuler,
+        tolerance=table.get("tolerance", number(0.0, 1.0, low_open=True), tolerance),
+        max_iterations=table.get("max_iterations", integer(1), 500),
+    )
+
+
+def _keyframes(table: Table, values: str) -> Keyframes:
+    times = table.get("times", array_of(number(), min_length=1))
+    rows = table.get(values, array_of(vector(), min_length=1))
+    table.finish()
+    return build(table.path, Keyframes, times, rows)
+
+
+def _airflow(table: Table, seed: int) -> Airflow:
+    options = {
+        "gust": table.get("gust", number(0.0, 1.0), 0.0),
+        "gusts": table.get("gusts", integer(0), 3),
+        "air_density": table.get("air_density", positive(), 1.2),
+        "drag": table.get("drag", number(0.0), 1.0),
+        "lift": table.get("lift", number(0.0), 0.6),
+    }
+    wind = build(table.path, Airflow, table.get("velocity", vector()), seed=seed, **options)
+    table.finish()
+    return wind
+
+
+class ClothBody(Body):
+    """A :class:`~motes.cloth.Cloth` in a scene."""
+
+    def __init__(
+        self, cloth: Cloth, *, color, stripes, diverged_color, blowup: float, specular: float
+    ):
+        self.cloth = cloth
+        self.color = color
+        self.stripes = stripes
+        self.diverged_color = diverged_color
+        self.blowup = blowup
+        self.material = Material(specular=specular, shininess=24.0)
+        self.diverged_at: float | None = None
+        self._start = cloth.position.copy()
+        self._last_good = cloth.position.copy()
+
+    def step(self, dt: float) -> None:
+        if self.diverged_at is not None:
+            return
+        with np.errstate(all="ignore"):
+            self.cloth.step(dt)
+            offset = self.cloth.position - self._start
+            moved = np.abs(offset).max()
+        if self.cloth.diverged or not moved < 1e3 * self.blowup:
+            self.diverged_at = self.cloth.time
+        # Drawn clamped to within ``blowup`` of the start (non-finite values at the
+        # start): an exploding cloth shows as a spiky mess that stays on screen.
+        offset = np.where(np.isfinite(offset), offset, 0.0)
+        self._last_good = self._start + np.clip(offset, -self.blowup, self.blowup)
+
+    def drawables(self) -> list:
+        from ..render.mesh import TriangleMesh
+
+        mesh = TriangleMesh(self._last_good.T, self.cloth.faces)
+        if self.diverged_at is not None:
+            return [geometry.Mesh(mesh, color=self.diverged_color, material=self.material)]
+        if self.stripes is not None:
+            return [geometry.Mesh(mesh, vertex_colors=self.stripes, material=self.material)]
+        return [geometry.Mesh(mesh, color=self.color, material=self.material)]
+
+    def count(self) -> int:
+        return self.cloth.n
+
+
+def _pins(table: Table, cloth: Cloth, grid: bool) -> None:
+    if grid:
+        ny, nx = cloth.grid_shape
+        for key, size in (("pin_rows", ny), ("pin_columns", nx)):
+            for i in table.get(key, array_of(integer(-size, size - 1)), []):
+                rows, cols = (i, slice(None)) if key == "pin_rows" else (slice(None), i)
+                cloth.pin(cloth.grid_index(rows, cols))
+        for k, (r, c) in enumerate(table.get("pin", array_of(vector(2)), [])):
+            if not (-ny <= r < ny and -nx <= c < nx) or r != int(r) or c != int(c):
+                raise SceneError(
+                    f"{table.key_path('pin')}[{k}]",
+                    f"must be a grid cell [row, column] inside {ny} x {nx}, got {[r, c]}",
+                )
+            cloth.pin(cloth.grid_index(int(r), int(c)))
+    pinned = table.get("pin_vertices", array_of(integer(0)), [])
+    if pinned:
+        if max(pinned) >= cloth.n:
+            raise SceneError(table.key_path("pin_vertices"), f"must be < {cloth.n}")
+        cloth.pin(pinned)
+    for t in table.tables("handle"):
+        if grid:
+            row = t.get("row", integer(), 0)
+            first, last = t.get("columns", vector(2), (0, cloth.grid_shape[1] - 1))
+            count = abs(int(last) - int(first)) + 1
+            cols = np.linspace(first, last, count).round().astype(int)
+            idx = cloth.grid_index(row, cols)
+            taper = t.get("taper", boolean, False)
+            weights = np.linspace(0.0, 1.0, count) if taper else None
+        else:
+            idx = np.asarray(t.get("vertices", array_of(integer(0), min_length=1)))
+            weights = None
+        path = _keyframes(t, "offsets")
+        cloth.move(idx, path, weights=weights)
+
+
+@register("cloth")
+def build_cloth(table: Table, context: BuildContext) -> ClothBody:
+    """A cloth from ``grid`` (+ ``size``, ``origin``, ``rotation``) or a ``mesh`` file."""
+    options = {
+        "density": table.get("density", positive(), 0.2),
+        "structural": table.get("structural", _family, SpringFamily(200.0, 0.2)),
+        "shear": table.get("shear", _family, SpringFamily(50.0, 0.05)),
+        "bending": table.get("bending", _family, SpringFamily(5.0, 0.01)),
+        "gravity": table.get("gravity", vector(), (0.0, -9.81, 0.0)),
+        "air_damping": table.get("air_damping", number(0.0), 0.1),
+        "thickness": table.get("thickness", number(0.0), 0.005),
+        "strain_limit": table.get("strain_limit", number(0.0), 0.1) or None,
+        "strain_iterations": table.get("strain_iterations", integer(1), 4),
+        "scheme": table.get(
+            "scheme",
+            one_of("implicit_euler", "explicit_euler", "semi_implicit_euler"),
+            "implicit_euler",
+        ),
+        "solver": _solver(table, 1e-2),
+    }
+    wind_table = table.table("wind", optional=True)
+    if wind_table is not None:
+        options["wind"] = _airflow(wind_table, context.seed)
+    if table.get("colliders", boolean, True):
+        options["colliders"] = list(context.colliders)
+    grid = table.has("grid")
+    if grid:
+        nx, ny = table.get("grid", vector(2))
+        if nx != int(nx) or ny != int(ny) or nx < 2 or ny < 2:
+            raise SceneError(table.key_path("grid"), f"must be two integers >= 2, got {[nx, ny]}")
+        cloth = build(
+            table.path,
+            Cloth.grid,
+            int(nx),
+            int(ny),
+            size=table.get("size", vector(2), (1.0, 1.0)),
+            origin=table.get("origin", vector(), (0.0, 0.0, 0.0)),
+            rotation=table.get("rotation", euler_rotation, None),
+            ripple=table.get("ripple", vector(2), (0.0, 1.0)),
+            **options,
+        )
+    else:
+        path = context.base / table.get("mesh", string)
+        try:
+            cloth = Cloth.from_mesh(path, **options)
+        except OSError as error:
+            raise SceneError(table.key_path("mesh"), f"cannot read {path}: {error}") from None
+        except ValueError as error:
+            raise SceneError(table.key_path("mesh"), str(error)) from None
+    _pins(table, cloth, grid)
+    tint = table.get("color", color, (0.8, 0.2, 0.15, 1.0))[:3]
+    stripes = table.get("stripes", array_of(color, min_length=1), None)
+    vertex_colors = None
+    if stripes is not None:
+        if not grid:
+            raise SceneError(table.key_path("stripes"), "needs a grid cloth")
+        rows = np.arange(cloth.n) // cloth.grid_shape[1]
+        band = rows * len(stripes) // cloth.grid_shape[0]
+        vertex_colors = np.array([s[:3] for s in stripes])[band]
+    return ClothBody(
+        cloth,
+        color=tint,
+        stripes=vertex_colors,
+        diverged_color=table.get("diverged_color", color, (0.9, 0.1, 0.1, 1.0))[:3],
+        blowup=table.get("blowup_distance", positive(), 5.0),
+        specular=table.get("specular", number(0.0), 0.1),
+    )
+
+
+class HairBody(Body):
+    """:class:`~motes.hair.Hair` on its head in a scene."""
+
+    def __init__(self, hair: Hair, *, color, tip_color, width: float, head_color):
+        self.hair = hair
+        self.width = width
+        self.head_color = head_color
+        p = hair.per_strand
+        t = np.linspace(0.0, 1.0, p)[:, None]
+        ramp = (1 - t) * np.asarray(color) + t * np.asarray(tip_color)
+        self.point_colors = np.tile(ramp, (hair.strand_count, 1))
+        index = np.arange(hair.n).reshape(hair.strand_count, p)
+        self.segments = np.stack([index[:, :-1].ravel(), index[:, 1:].ravel()], 1)
+
+    def step(self, dt: float) -> None:
+        self.hair.step(dt)
+
+    def drawables(self) -> list:
+        head = self.hair.head
+        r, c = head.pose(self.hair.time)
+        radius = head.radius
+        features = [
+            geometry.Sphere(c, radius, color=self.head_color),
+            geometry.Sphere(
+                c + r @ (0.0, -0.1 * radius, 0.98 * radius), 0.18 * radius, color=self.head_color
+            ),
+        ]
+        for side in (-1.0, 1.0):
+            eye = c + r @ (0.35 * side * radius, 0.2 * radius, 0.88 * radius)
+            features.append(geometry.Sphere(eye, 0.1 * radius, color=(0.02, 0.02, 0.03)))
+        lines = geometry.Lines(
+            self.hair.position.T, self.segments, point_colors=self.point_colors, width=self.width
+        )
+        return [*features, lines]
+
+    def count(self) -> int:
+        return self.hair.n
+
+
+@register("hair")
+def build_hair(table: Table, context: BuildContext) -> HairBody:
+    """Strands on a head that may move (``translation``, ``rotation`` keyframes)."""
+    head_table = table.table("head", optional=True)
+    head_options = {}
+    center, radius, friction = (0.0, 1.6, 0.0), 0.1, 0.3
+    if head_table is not None:
+        center = head_table.get("center", vector(), center)
+        radius = head_table.get("radius", positive(), radius)
+        friction = head_table.get("friction", number(0.0, 1.0), friction)
+        move = head_table.table("translation", optional=True)
+        if move is not None:
+            head_options["translation"] = _keyframes(move, "offsets")
+        turn = head_table.table("rotation", optional=True)
+        if turn is not None:
+            head_options["rotation"] = _keyframes(turn, "angles")
+        head_color = head_table.get("color", color, (0.85, 0.62, 0.5, 1.0))[:3]
+        head_table.finish()
+    else:
+        head_color = (0.85, 0.62, 0.5)
+    head = build(table.key_path("head"), Head, center, radius, friction=friction, **head_options)
+    hair = build(
+        table.path,
+        Hair,
+        head,
+        strands=table.get("strands", integer(1), 500),
+        particles=table.get("particles", integer(3), 10),
+        length=table.get("length", positive(), 0.25),
+        mass=table.get("mass", positive(), 1e-4),
+        stretch=table.get("stretch", vector(2), (500.0, 0.02)),
+        bending=table.get("bending", vector(2), (2.0, 0.001)),
+        stretch_limit=table.get("stretch_limit", number(0.0), 0.02) or None,
+        air_damping=table.get("air_damping", number(0.0), 1.0),
+        gravity=table.get("gravity", vector(), (0.0, -9.81, 0.0)),
+        thickness=table.get("thickness", number(0.0), 0.004),
+        colliders=list(context.colliders) if table.get("colliders", boolean, True) else [],
+        solver=_solver(table, 1e-2),
+        seed=context.seed % (2**32),
+    )
+    return HairBody(
+        hair,
+        color=table.get("color", color, (0.25, 0.14, 0.07, 1.0))[:3],
+        tip_color=table.get("tip_color", color, (0.55, 0.38, 0.2, 1.0))[:3],
+        width=table.get("width", positive(), 1.5),
+        head_color=head_color,
+    )
