@@ -138,6 +138,28 @@ class Fluid:
     def __len__(self) -> int:
         return self.state.positions.shape[1]
 
+    def add(self, positions, *, velocities=None, phase: int = 0) -> None:
+        """Append particles (an emitter): ``positions`` (3, k) [m], ``velocities`` (3, k)
+        [m/s] (zero by default), all of one ``phase``."""
+        pos = np.asarray(positions, dtype=np.float64)
+        if pos.ndim != 2 or pos.shape[0] != 3 or not np.all(np.isfinite(pos)):
+            raise ValueError(f"positions must be finite with shape (3, k), got {pos.shape}")
+        k = pos.shape[1]
+        vel = np.zeros((3, k)) if velocities is None else np.asarray(velocities, np.float64)
+        if vel.shape != (3, k) or not np.all(np.isfinite(vel)):
+            raise ValueError(f"velocities must be finite with shape (3, {k})")
+        if not 0 <= phase < len(self.model.phases):
+            raise ValueError(f"phase must be in [0, {len(self.model.phases) - 1}], got {phase}")
+        s = self.state
+        first = int(s.ids.max()) + 1 if len(self) else 0
+        s.positions = np.concatenate([s.positions, pos.astype(np.float32)], axis=1)
+        s.velocities = np.concatenate([s.velocities, vel.astype(np.float32)], axis=1)
+        s.phase = np.concatenate([s.phase, np.full(k, phase, np.int32)])
+        s.ids = np.concatenate([s.ids, np.arange(first, first + k, dtype=np.int64)])
+        rho = np.float32(self.model.phases[phase].rest_density)
+        s.density = np.concatenate([s.density, np.full(k, rho, np.float32)])
+        s.pressure = np.concatenate([s.pressure, np.zeros(k, np.float32)])
+
     # -- what users read -----------------------------------------------------------------
     @property
     def positions(self) -> np.ndarray:
