@@ -36,7 +36,7 @@ WATER = (0.25, 0.45, 0.75)
 
 
 class _Nozzle:
-    """Emits a disc of particles (a hexagonal pattern of ``spacing``) each time the last
+    """Emits a disc of particles (a square pattern of ``spacing``) each time the last
     layer has moved one spacing away: the flow rate follows from speed and radius."""
 
     def __init__(self, position, velocity, radius, spacing, phase, start, stop):
@@ -50,10 +50,12 @@ class _Nozzle:
         u = np.cross(axis, helper)
         u /= np.linalg.norm(u)
         w = np.cross(axis, u)
+        # A square pattern, so that layers one spacing apart are the rest lattice: a
+        # denser (hexagonal) one would start compressed and the solver would spring
+        # the jet apart.
         k = math.ceil(radius / spacing)
         a, b = np.meshgrid(np.arange(-k, k + 1), np.arange(-k, k + 1), indexing="ij")
-        x = (a + 0.5 * b) * spacing
-        y = b * spacing * math.sqrt(3) / 2
+        x, y = a * spacing, b * spacing
         inside = x * x + y * y <= radius * radius + 1e-12
         self.layer = (u[:, None] * x[inside] + w[:, None] * y[inside]).astype(np.float64)
         self.interval = spacing / speed
