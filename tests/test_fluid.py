@@ -164,3 +164,37 @@ def test_bad_state_and_boundaries_are_refused():
     with pytest.raises(ValueError, match="dt must be > 0"):
         Fluid(model, np.zeros((3, 1))).step(0.0)
     assert dataclasses.replace(model, iterations=2).iterations == 2
+
+
+def test_adhesion_holds_a_drop_under_a_ceiling():
+    # Three layers of liquid under a ceiling: gravity pulls them off unless the ceiling's
+    # adhesion (Akinci et al. 2013), which reaches the two layers within h of it, is
+    # stronger than their weight. Without cohesion the third layer drips off either way.
+    def hang(adhesion):
+        ceiling = Plane((0, -1, 0), (0, 0.2, 0), adhesion=adhesion, friction=0.5)
+        model = FluidModel(spacing=0.01, xsph=0.1, boundaries=(ceiling,))
+        drop = Fluid(model, lattice((0, 0.17, 0), (0.04, 0.2, 0.04), 0.01))
+        for _ in range(30):
+            drop.step(1 / 60)
+        return (drop.positions[1] > 0.17).mean()
+
+    assert hang(20.0) == pytest.approx(2 / 3)  # the two layers within reach still hang
+    assert hang(0.0) == 0.0  # all fell
+
+
+@pytest.mark.parametrize("model", ["scale", "depth"])
+def test_wall_friction_slows_a_sliding_block(model):
+    def slide(friction):
+        floor = Plane((0, 1, 0), (0, 0, 0), friction=friction, friction_model=model)
+        fluid_model = FluidModel(spacing=0.02, xsph=0.0, boundaries=(floor,))
+        pos = lattice((0, 0, 0), (0.1, 0.06, 0.1), 0.02)
+        vel = np.zeros_like(pos)
+        vel[0] = 1.0
+        block = Fluid(fluid_model, pos, velocities=vel)
+        for _ in range(20):
+            block.step(1 / 120)
+        return block.velocities[0].mean()
+
+    free = slide(0.0)
+    assert free == pytest.approx(1.0, abs=0.02)  # nothing to slow it without friction
+    assert slide(0.5) < 0.9 * free
