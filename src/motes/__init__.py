@@ -9,7 +9,7 @@
 True
 """
 
-from . import colliders, io, render, scene, shapes
+from . import colliders, fluids, io, render, scene, shapes, spatial
 from .collide import Friction, Response
 from .emit import (
     Burst,
@@ -31,6 +31,7 @@ from .emit import (
     ShapeNormal,
     Uniform,
 )
+from .fluids import Fluid, FluidModel
 from .forces import (
     CallbackForce,
     CurlNoise,
@@ -64,6 +65,7 @@ from .render.camera import Camera, Projection
 from .render.renderer import Renderer
 from .render.sprites import SpriteStyle
 from .scene import Scene, SceneError, load_scene
+from .spatial import UniformGrid
 from .system import ParticleSystem
 
 __version__ = "0.1.0"
@@ -87,6 +89,8 @@ __all__ = [
     "Emitter",
     "Extinction",
     "FieldForce",
+    "Fluid",
+    "FluidModel",
     "Force",
     "ForceJacobian",
     "Friction",
@@ -120,12 +124,15 @@ __all__ = [
     "Springs",
     "SpriteStyle",
     "Uniform",
+    "UniformGrid",
     "Vortex",
     "Wind",
     "colliders",
+    "fluids",
     "io",
     "load_scene",
     "render",
     "scene",
     "shapes",
+    "spatial",
 ]
