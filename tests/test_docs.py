@@ -30,3 +30,11 @@ def test_rendering_guide_examples_run(capsys):
     assert namespace["image"].std() > 5  # ground, crate, ball and blobs: not a flat image
     assert (namespace["out"] / "clip.gif").exists()
     assert "True" in capsys.readouterr().out
+
+
+def test_fluids_guide_examples_run(capsys):
+    namespace = run_blocks(DOCS / "fluids.md")
+    assert namespace["water"].density_error < 0.02
+    assert namespace["front"] > 0.15  # the 0.1 m column spread along the tank
+    assert len(namespace["pairs"]) > 0
+    assert "True" in capsys.readouterr().out
