@@ -82,9 +82,10 @@ def test_small_dam_break_follows_martin_and_moyce():
     from benchmarks.dam_break import run
 
     result = run(resolution=8, quick=True)
-    # 8 particles across the column (the benchmark uses 20): the front runs ahead of the
-    # experiment; a looser bound than the benchmark's 10 % target.
-    assert result["max_rel_dev"] < 0.3
+    # 8 particles across the column (the benchmark uses 20): measured 10 % here and 14.5 %
+    # at 20 across (the front runs ahead of the experiment, more at finer resolution);
+    # the bound leaves room for the round-off of other machines, not for a broken solver.
+    assert result["max_rel_dev"] < 0.2
     assert result["mean_density_error"] < 0.02
 
 
