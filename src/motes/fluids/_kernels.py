@@ -148,7 +148,7 @@ def density_lambda(px, py, pz, offsets, nbr, weight, rows, h, inv_delta0, eps, d
             density = self_density
             gx = gy = gz = 0.0
             sum_g2 = 0.0
-            for k in range(offsets[i], offsets[i + 1]):
+            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
                 j = nbr[k]
                 rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
                 r2 = rx * rx + ry * ry + rz * rz
@@ -183,7 +183,7 @@ def correction(px, py, pz, offsets, nbr, weight, lam, rows, h, inv_delta0, k_cor
             xi, yi, zi = px[i], py[i], pz[i]
             li = lam[i]
             ax = ay = az = 0.0
-            for k in range(offsets[i], offsets[i + 1]):
+            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
                 j = nbr[k]
                 rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
                 r2 = rx * rx + ry * ry + rz * rz
@@ -239,6 +239,8 @@ def exchange(px, py, pz, vx, vy, vz, offsets, nbr, phase, mass, delta, gamma, co
         coefficients[4], coefficients[5], coefficients[6],
     )  # fmt: skip
     h2 = h * h
+    lecture_on = k_visc > 0.0
+    pairs_on = repulsion > 0.0 or gamma.max() > 0.0
     for block in prange(block_count(n)):
         start, stop = block_bounds(block, n)
         for i in range(start, stop):
@@ -247,7 +249,7 @@ def exchange(px, py, pz, vx, vy, vz, offsets, nbr, phase, mass, delta, gamma, co
             mi = mass[i]
             pi = phase[i]
             fx = fy = fz = 0.0  # momentum change [kg m/s]
-            for k in range(offsets[i], offsets[i + 1]):
+            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
                 j = nbr[k]
                 rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
                 r2 = rx * rx + ry * ry + rz * rz
@@ -255,12 +257,19 @@ def exchange(px, py, pz, vx, vy, vz, offsets, nbr, phase, mass, delta, gamma, co
                     continue
                 mj = mass[j]
                 mu = 2.0 * mi * mj / (mi + mj)
-                w = 2.0 * poly6(r2, h) / (delta[i] + delta[j])
-                lecture = k_visc * math.exp(-r2 * inv_two_sigma2) * dt
-                smooth = xsph * mu * w
-                fx += lecture * (mj * vx[j] - mi * ui) + smooth * (vx[j] - ui)
-                fy += lecture * (mj * vy[j] - mi * wi) + smooth * (vy[j] - wi)
-                fz += lecture * (mj * vz[j] - mi * si) + smooth * (vz[j] - si)
+                smooth = xsph * mu * 2.0 * poly6(r2, h) / (delta[i] + delta[j])
+                fx += smooth * (vx[j] - ui)
+                fy += smooth * (vy[j] - wi)
+                fz += smooth * (vz[j] - si)
+                # Terms that are off are skipped (a predictable branch): the exponential
+                # and the square root cost more than the rest of the pair.
+                if lecture_on:
+                    lecture = k_visc * math.exp(-r2 * inv_two_sigma2) * dt
+                    fx += lecture * (mj * vx[j] - mi * ui)
+                    fy += lecture * (mj * vy[j] - mi * wi)
+                    fz += lecture * (mj * vz[j] - mi * si)
+                if not pairs_on:
+                    continue
                 r = math.sqrt(r2)
                 if r > 0.0:
                     if phase[j] == pi:
