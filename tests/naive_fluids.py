@@ -124,6 +124,15 @@ def cohesion_spline(r, h):
     return np.where((r > 0) & (r <= h), value, 0.0)
 
 
+def surface_normals(p, phase, delta, h):
+    """Akinci et al. 2013, eq. 5 over same-phase neighbours: n_i = h Σ ∇W_poly6 / δ_j."""
+    rel, r, near = pairs_within(p, h)
+    same = phase[:, None] == phase[None, :]
+    grad = -6 * 315 / (64 * np.pi * h**9) * np.clip(h * h - r * r, 0, None) ** 2
+    w = np.where(near & same, grad / delta[None, :], 0)
+    return h * (w[..., None] * rel).sum(axis=1)
+
+
 def exchange(p, v, phase, mass, delta, gamma, h, dt, xsph, k, sigma, repulsion, delta0):
     rel, r, near = pairs_within(p, h)
     mi, mj = mass[:, None], mass[None, :]
@@ -141,6 +150,9 @@ def exchange(p, v, phase, mass, delta, gamma, h, dt, xsph, k, sigma, repulsion, 
     rep = repulsion * mu * spiky(r, h) / delta0 * dt / safe
     s = np.where(near & (r > 0), np.where(same, coh, rep), 0)
     f += (s[..., None] * rel).sum(axis=1)
+    normals = surface_normals(p, phase, delta, h)
+    c = np.where(near & (r > 0) & same, -gamma[phase][:, None] * mi * kij * dt, 0)
+    f += (c[..., None] * (normals[:, None, :] - normals[None, :, :])).sum(axis=1)
     return v + f / mass[:, None]
 
 

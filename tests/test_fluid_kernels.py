@@ -150,7 +150,13 @@ def test_exchange_matches_the_twin_and_the_lecture(rng):
     out = np.empty((3, n), np.float32)
     pf, vf = p.T.astype(np.float32), v.T.astype(np.float32)
     args = (lists.offsets, lists.indices, phase, mass.astype(np.float32), delta.astype(np.float32))
-    _kernels.exchange(*pf, *vf, *args, gamma, coefficients, out)
+    normals = np.empty((3, n), np.float32)
+    _kernels.surface_normals(*pf, lists.offsets, lists.indices, phase, args[-1], h, normals)
+    ref_normals = naive.surface_normals(
+        pf.T.astype(float), phase, delta.astype(np.float32).astype(float), h
+    )
+    assert_allclose(normals.T, ref_normals, rtol=1e-4, atol=1e-5)
+    _kernels.exchange(*pf, *vf, *args, normals, gamma, coefficients, out)
     ref = naive.exchange(
         pf.T.astype(float), vf.T.astype(float), phase, mass.astype(np.float32).astype(float),
         delta.astype(np.float32).astype(float), gamma, h, 0.004, 0.05, 3.0, 0.04, 20.0, 1000.0,
@@ -158,7 +164,7 @@ def test_exchange_matches_the_twin_and_the_lecture(rng):
     assert_allclose(out.T, ref, rtol=1e-4, atol=1e-5)
     # The lecture's viscosity alone, against its pair-by-pair loop.
     coefficients[[2, 5]] = 0.0
-    _kernels.exchange(*pf, *vf, *args, np.zeros(2), coefficients, out)
+    _kernels.exchange(*pf, *vf, *args, normals, np.zeros(2), coefficients, out)
     lecture = naive.momentum_exchange_pairs(
         pf.T.astype(float),
         vf.T.astype(float),

@@ -219,7 +219,9 @@ def cohesion_spline(r, h):
 
 
 @parallel_kernel
-def exchange(px, py, pz, vx, vy, vz, offsets, nbr, phase, mass, delta, gamma, coefficients, out):
+def exchange(
+    px, py, pz, vx, vy, vz, offsets, nbr, phase, mass, delta, normals, gamma, coefficients, out
+):
     """Pairwise velocity exchanges over neighbours within ``h``; ``out`` (3, n) = new v.
 
     ``coefficients`` = (h [m], dt [s], xsph [-], k [1/s], 1/(2σ²) [1/m²],
@@ -229,8 +231,9 @@ def exchange(px, py, pz, vx, vy, vz, offsets, nbr, phase, mass, delta, gamma, co
       Gaussian ``G(d) = exp(-d² / 2σ²)``;
     - XSPH (Macklin & Müller 2013, eq. 17) symmetrised: ``m_i Δv_i = c μ_ij W̃ (v_j - v_i)``
       with ``W̃ = 2 W_poly6 / (δ_i + δ_j)`` and ``μ_ij = 2 m_i m_j / (m_i + m_j)``;
-    - cohesion (Akinci et al. 2013, eqs. 1-2), same phase only:
-      ``F = -γ m_i m_j K_ij C(d) d̂`` with ``K_ij = 2 δ₀ / (δ_i + δ_j)``;
+    - surface tension (Akinci et al. 2013, eqs. 1-5), same phase only: cohesion
+      ``-γ m_i m_j C(d) d̂`` plus curvature ``-γ m_i (n_i - n_j)`` (``normals`` from
+      :func:`surface_normals`), both times ``K_ij = 2 δ₀ / (δ_i + δ_j)``;
     - repulsion between different phases: ``F = a μ_ij W_spiky(d) / δ₀ d̂``.
     """
     n = px.shape[0]
@@ -275,6 +278,12 @@ def exchange(px, py, pz, vx, vy, vz, offsets, nbr, phase, mass, delta, gamma, co
                     if phase[j] == pi:
                         kij = 2.0 * delta0 / (delta[i] + delta[j])
                         s = -gamma[pi] * mi * mj * kij * cohesion_spline(r, h) * dt / r
+                        # Curvature: masses are equal within a phase, so m_i here is
+                        # symmetric and the pair's terms cancel.
+                        c = -gamma[pi] * mi * kij * dt
+                        fx += c * (normals[0, i] - normals[0, j])
+                        fy += c * (normals[1, i] - normals[1, j])
+                        fz += c * (normals[2, i] - normals[2, j])
                     else:
                         s = repulsion * mu * spiky(r, h) / delta0 * dt / r
                     fx += s * rx
@@ -283,6 +292,36 @@ def exchange(px, py, pz, vx, vy, vz, offsets, nbr, phase, mass, delta, gamma, co
             out[0, i] = ui + fx / mi
             out[1, i] = wi + fy / mi
             out[2, i] = si + fz / mi
+
+
+@parallel_kernel
+def surface_normals(px, py, pz, offsets, nbr, phase, delta, h, out):
+    """Akinci et al. 2013, eq. 5: ``n_i = h Σ_j ∇W_poly6(p_i - p_j) / δ_j`` [-].
+
+    Over neighbours of the same phase (each liquid has its own surface), with the volume
+    ``m_j / ρ_j = 1 / δ_j``. It is 0 inside a liquid and about 1 in length at its
+    surface, pointing into the liquid. ``out`` has shape (3, n).
+    """
+    n = px.shape[0]
+    scale = -6.0 * 315.0 / (64.0 * math.pi * h**9) * h
+    h2 = h * h
+    for block in prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            xi, yi, zi = px[i], py[i], pz[i]
+            pi = phase[i]
+            ax = ay = az = 0.0
+            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
+                j = nbr[k]
+                rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
+                d = max(h2 - (rx * rx + ry * ry + rz * rz), 0.0)
+                s = scale * d * d / delta[j] * (phase[j] == pi)
+                ax += s * rx
+                ay += s * ry
+                az += s * rz
+            out[0, i] = ax
+            out[1, i] = ay
+            out[2, i] = az
 
 
 @device

@@ -255,9 +255,12 @@ class Fluid:
         coefficients = np.array(
             [h, dt, m.xsph, m.viscosity, 1.0 / (2.0 * sigma * sigma), m.repulsion, d["delta0"]]
         )
+        normals = np.zeros((3, n), np.float32)
+        if d["cohesion"].max() > 0:
+            _kernels.surface_normals(*s.positions, offsets, nbr, s.phase, delta, h, normals)
         out = np.empty_like(s.velocities)
         _kernels.exchange(
-            *s.positions, *s.velocities, offsets, nbr, s.phase, masses, delta,
+            *s.positions, *s.velocities, offsets, nbr, s.phase, masses, delta, normals,
             d["cohesion"], coefficients, out,
         )  # fmt: skip
         s.velocities = out
