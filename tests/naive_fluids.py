@@ -108,6 +108,18 @@ def density_lambda(p, weight, rows, h, delta0, eps):
     return delta, -c / (sum_g2 + weight * (own**2).sum(axis=1) + eps)
 
 
+def project(p, rows, radius):
+    """Each boundary in order pushes points closer than radius back to it; the pushes."""
+    p = p.copy()
+    deepest = np.zeros(len(p))
+    for row in rows:
+        d, n = signed_distance(row, p)
+        push = np.clip(radius - d, 0, None)
+        p += push[:, None] * n
+        deepest = np.maximum(deepest, push)
+    return p, deepest
+
+
 def correction(p, weight, lam, rows, h, delta0, k_corr, inv_wq):
     rel, r, near = pairs_within(p, h)
     scorr = k_corr * (poly6(r, h) * inv_wq) ** 4

@@ -119,13 +119,18 @@ def test_density_lambda_and_correction_match_the_twin(rng):
     assert (lam < 0).sum() > 10
     assert_allclose(lam, ref_lam, rtol=1e-4, atol=1e-5 * np.abs(ref_lam).max())
     out = np.empty((3, n), np.float32)
+    radius = 0.025
     _kernels.correction(
-        *pf, lists.offsets, lists.indices, weight, lam, rows, h, 1 / delta0, 1e-4, 1e-3, out
-    )
-    ref = naive.correction(
-        pf.T.astype(float), weight.astype(float), lam.astype(float), rows, h, delta0, 1e-4, 1e-3
-    )
-    assert_allclose(out.T, ref, rtol=1e-4, atol=1e-4 * np.abs(ref).max())
+        *pf, lists.offsets, lists.indices, weight, lam, rows, h, 1 / delta0, 1e-4, 1e-3,
+        radius, out,
+    )  # fmt: skip
+    p64 = pf.T.astype(float)
+    dp = naive.correction(p64, weight.astype(float), lam.astype(float), rows, h, delta0, 1e-4, 1e-3)
+    ref, pushed = naive.project(p64 + dp, rows, radius)
+    assert pushed.max() > 0  # some corrections ended inside a wall
+    # Corrections of ~1e-3 m on positions of ~0.1 m, kept in float32: 1e-7 m round-off
+    # on the position, 1e-4 of the largest correction on the correction.
+    assert_allclose(out.T - p64, ref - p64, rtol=1e-4, atol=1e-4 * np.abs(dp).max() + 1e-7)
 
 
 def test_walls_free_share_is_exact_at_a_tank_corner():

@@ -103,28 +103,36 @@ def walls(rows, x, y, z, h):
     return free, gx, gy, gz
 
 
+@device
+def push_out(rows, radius, x, y, z):
+    """The point moved to at least ``radius`` [m] from every boundary, and the largest
+    push [m]. Boundaries are visited in order; a tank's planes are axis-aligned, so this
+    clamps into the box exactly, corners included."""
+    deepest = 0.0
+    for b in range(rows.shape[0]):
+        d, nx, ny, nz = signed_distance(rows, b, x, y, z)
+        push = radius - d
+        if push > 0.0:
+            x += push * nx
+            y += push * ny
+            z += push * nz
+            deepest = max(deepest, push)
+    return x, y, z, deepest
+
+
 @parallel_kernel
 def project(px, py, pz, rows, radius, depth):
     """Push particles closer than ``radius`` [m] to a boundary back to that distance.
 
     ``depth[i]`` receives the largest push-out of particle ``i`` [m] (friction by depth).
-    Boundaries are visited in order; a tank's planes are axis-aligned, so this clamps into
-    the box exactly, corners included.
     """
     n = px.shape[0]
     for block in prange(block_count(n)):
         start, stop = block_bounds(block, n)
         for i in range(start, stop):
-            x, y, z = np.float64(px[i]), np.float64(py[i]), np.float64(pz[i])
-            deepest = 0.0
-            for b in range(rows.shape[0]):
-                d, nx, ny, nz = signed_distance(rows, b, x, y, z)
-                push = radius - d
-                if push > 0.0:
-                    x += push * nx
-                    y += push * ny
-                    z += push * nz
-                    deepest = max(deepest, push)
+            x, y, z, deepest = push_out(
+                rows, radius, np.float64(px[i]), np.float64(py[i]), np.float64(pz[i])
+            )
             px[i], py[i], pz[i] = x, y, z
             depth[i] = deepest
 
@@ -169,12 +177,16 @@ def density_lambda(px, py, pz, offsets, nbr, weight, rows, h, inv_delta0, eps, d
 
 
 @parallel_kernel
-def correction(px, py, pz, offsets, nbr, weight, lam, rows, h, inv_delta0, k_corr, inv_wq, out):
-    """Position corrections ``Δp_i`` [m] of Macklin & Müller 2013, eqs. 12-14.
+def correction(
+    px, py, pz, offsets, nbr, weight, lam, rows, h, inv_delta0, k_corr, inv_wq, radius, out
+):
+    """Corrected positions ``p_i + Δp_i`` [m] (Macklin & Müller 2013, eqs. 12-14), pushed
+    out of the boundaries to ``radius`` [m]; ``out`` has shape (3, n).
 
     ``Δp_i = w_i / δ₀ Σ_j (λ_i + λ_j + s_corr) ∇W_spiky(p_i - p_j) + w_i λ_i ∇(1 - Q)``
     with the tensile term ``s_corr = -k (W(p_i - p_j) / W(Δq))⁴`` [m²]
-    (``inv_wq = 1 / W(Δq)``). ``out`` has shape (3, n).
+    (``inv_wq = 1 / W(Δq)``). Jacobi: every particle reads the positions before the
+    correction, so ``out`` must not alias them.
     """
     n = px.shape[0]
     for block in prange(block_count(n)):
@@ -201,9 +213,10 @@ def correction(px, py, pz, offsets, nbr, weight, lam, rows, h, inv_delta0, k_cor
             ax += wi * li * wx
             ay += wi * li * wy
             az += wi * li * wz
-            out[0, i] = ax
-            out[1, i] = ay
-            out[2, i] = az
+            x, y, z, _ = push_out(rows, radius, xi + ax, yi + ay, zi + az)
+            out[0, i] = x
+            out[1, i] = y
+            out[2, i] = z
 
 
 @device

@@ -224,8 +224,7 @@ class Fluid:
         delta = np.empty(n, np.float32)
         lam = np.empty(n, np.float32)
         lam_sum = np.zeros(n, np.float32)
-        dp = np.empty((3, n), np.float32)
-        scratch = np.empty(n, np.float32)
+        spare = np.empty((3, n), np.float32)
         inv_delta0 = 1.0 / d["delta0"]
         for _ in range(m.iterations):
             _kernels.density_lambda(
@@ -233,10 +232,9 @@ class Fluid:
             )
             _kernels.correction(
                 *predicted, offsets, nbr, weight, lam, rows, h, inv_delta0,
-                d["tensile_k"], d["inv_wq"], dp,
+                d["tensile_k"], d["inv_wq"], radius, spare,
             )  # fmt: skip
-            predicted += dp
-            _kernels.project(*predicted, rows, radius, scratch)
+            predicted, spare = spare, predicted
             lam_sum += lam
         rho0 = np.float32(m.phases[0].rest_density)
         s.density = (
