@@ -178,6 +178,7 @@ def test_deterministic_and_thread_count_independent(rng):
         ({"iterations": 0}, "iterations must be >= 1"),
         ({"xsph": 2}, "xsph must be <= 1"),
         ({"viscosity": -1}, "viscosity must be >= 0"),
+        ({"viscosity": 30}, r"viscosity must be <= 22.53 1/s at max_dt"),
         ({"phases": ()}, "phases must be a non-empty"),
         ({"boundaries": ("floor",)}, "boundaries must hold"),
         ({"gravity": (0, 1)}, "gravity must have shape"),

@@ -56,8 +56,9 @@ class FluidModel:
         XSPH velocity smoothing c (Macklin & Müller 2013, eq. 17) in [0, 1].
     viscosity : float
         k [1/s] of the pairwise momentum exchange ``k G(d) Δt (m_j v_j - m_i v_i)``,
-        >= 0 (the Gaussian ``G`` has width ``viscosity_width``). Stable while
-        ``k Δt`` times the number of neighbours stays below 1.
+        >= 0 (the Gaussian ``G`` has width ``viscosity_width``). The exchange is
+        explicit: ``k · max_dt · Σ_j G`` over a rest neighbourhood must stay <= 1,
+        checked here (``k <= 22.5 /s`` at the default step and width).
     viscosity_width : float or None
         σ of the Gaussian [m]; None: one spacing.
     repulsion : float
@@ -112,6 +113,15 @@ class FluidModel:
         object.__setattr__(self, "boundaries", walls)
         object.__setattr__(self, "gravity", tuple(float(g) for g in self.gravity))
         object.__setattr__(self, "derived", self._derive())
+        # The exchange is explicit: v_i gains k Δt Σ_j G(d_ij) (v_j - v_i), which
+        # overshoots (and grows) once k Δt Σ G exceeds 1. Refuse such a viscosity here
+        # instead of letting the liquid blow up.
+        limit = 1.0 / (self.max_dt * self.derived["gaussian_sum"])
+        if self.viscosity > limit:
+            raise ValueError(
+                f"viscosity must be <= {limit:.4g} 1/s at max_dt = {self.max_dt:g} s (the "
+                f"explicit exchange is unstable beyond; lower max_dt), got {self.viscosity}"
+            )
 
     @property
     def h(self) -> float:
@@ -134,6 +144,9 @@ class FluidModel:
         # (``Σ_j y_ij² |∇W_ij| / r_ij / δ₀`` over the lattice, 0.947 at h = 2 spacings):
         # the factor between the step's λ and the pressure that balances gravity.
         gradient_factor = float(-(scale * y * y).sum())
+        sigma = self.viscosity_width if self.viscosity_width is not None else s
+        near = (r > 0) & (r <= h)
+        gaussian_sum = float(np.exp(-(r[near] ** 2) / (2 * sigma * sigma)).sum())
         densities = np.array([p.rest_density for p in self.phases])
         q = 0.2 * h  # Δq of Macklin & Müller 2013 (0.1-0.3 h)
         w_dq = 315.0 / (64.0 * math.pi * h**9) * (h * h - q * q) ** 3
@@ -147,5 +160,6 @@ class FluidModel:
             "weight": densities[0] / densities,
             "cohesion": np.array([p.cohesion for p in self.phases]),
             "gradient_factor": gradient_factor,
-            "sigma": self.viscosity_width if self.viscosity_width is not None else s,
+            "sigma": sigma,
+            "gaussian_sum": gaussian_sum,
         }
