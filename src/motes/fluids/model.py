@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import _validate
 from . import boundaries as _boundaries
-from .sph import lattice_number_density, spiky_gradient_scale
+from .sph import SPIKY_GRAD, lattice_number_density
 
 
 @dataclass(frozen=True)
@@ -137,7 +137,11 @@ class FluidModel:
         k = np.arange(-reach, reach + 1) * s
         x, y, z = (a.ravel() for a in np.meshgrid(k, k, k, indexing="ij"))
         r = np.sqrt(x * x + y * y + z * z)
-        scale = np.array([spiky_gradient_scale(float(ri), h) for ri in r]) / delta0
+        # ∇W_spiky = scale · r⃗ (sph.spiky_gradient_scale, here in NumPy: calling the
+        # compiled device function from Python would compile it in every process).
+        safe = np.where(r > 0, r, 1.0)
+        scale = np.where((r > 0) & (r <= h), SPIKY_GRAD / h**6 * (h - r) ** 2 / safe, 0.0)
+        scale = scale / delta0
         own = (scale * x).sum() ** 2 + (scale * y).sum() ** 2 + (scale * z).sum() ** 2
         stiffness = float((scale * scale * r * r).sum() + own)
         # The discrete operator's response to a linear λ field, 1 in the continuum

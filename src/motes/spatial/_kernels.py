@@ -21,34 +21,6 @@ from .._jit import block_bounds, block_count, device, parallel_kernel, serial_ke
 CHUNK = 256
 
 
-@parallel_kernel
-def block_bounds_of(x, y, z, out):
-    """Per-block minimum and maximum of the coordinates.
-
-    ``out`` has shape ``(blocks, 6)``: min x, y, z, then max x, y, z of each block; the
-    caller reduces the few rows.
-    """
-    n = x.shape[0]
-    for block in prange(block_count(n)):
-        start, stop = block_bounds(block, n)
-        lo_x = hi_x = x[start]
-        lo_y = hi_y = y[start]
-        lo_z = hi_z = z[start]
-        for i in range(start, stop):
-            lo_x = min(lo_x, x[i])
-            hi_x = max(hi_x, x[i])
-            lo_y = min(lo_y, y[i])
-            hi_y = max(hi_y, y[i])
-            lo_z = min(lo_z, z[i])
-            hi_z = max(hi_z, z[i])
-        out[block, 0] = lo_x
-        out[block, 1] = lo_y
-        out[block, 2] = lo_z
-        out[block, 3] = hi_x
-        out[block, 4] = hi_y
-        out[block, 5] = hi_z
-
-
 @device
 def cell_coordinate(value, origin, inv_cell, size):
     """Cell index of one coordinate, clamped into ``[0, size)``."""
@@ -91,19 +63,6 @@ def counting_sort(keys, cell_start, order):
         k = keys[i]
         order[cursor[k]] = i
         cursor[k] += 1
-
-
-@parallel_kernel
-def gather_rows(x, y, z, order, out_x, out_y, out_z):
-    """``out[slot] = value[order[slot]]`` for the three coordinate rows."""
-    n = order.shape[0]
-    for block in prange(block_count(n)):
-        start, stop = block_bounds(block, n)
-        for s in range(start, stop):
-            i = order[s]
-            out_x[s] = x[i]
-            out_y[s] = y[i]
-            out_z[s] = z[i]
 
 
 @device

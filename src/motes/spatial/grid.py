@@ -129,10 +129,8 @@ class UniformGrid:
             self.cell_start = np.zeros(2, np.int64)
             return self
         x, y, z = pos
-        blocks = np.empty((-(-n // 1024), 6), np.float32)
-        _kernels.block_bounds_of(x, y, z, blocks)
-        lo = blocks[:, :3].min(axis=0).astype(np.float64)
-        hi = blocks[:, 3:].max(axis=0).astype(np.float64)
+        lo = pos.min(axis=1).astype(np.float64)
+        hi = pos.max(axis=1).astype(np.float64)
         if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
             raise ValueError("positions must be finite (no NaN or inf)")
         cell = self.cell_size * (1.0 + _MARGIN)
@@ -153,8 +151,7 @@ class UniformGrid:
             self.cell_start = np.empty(cells + 1, np.int64)
         _kernels.cell_keys(x, y, z, lo, 1.0 / cell, dims, self._keys)
         _kernels.counting_sort(self._keys, self.cell_start, self.order)
-        sx, sy, sz = self.sorted_positions
-        _kernels.gather_rows(x, y, z, self.order, sx, sy, sz)
+        np.take(pos, self.order, axis=1, out=self.sorted_positions)
         return self
 
     def neighbors(self, radius: float, *, slots: bool = False, grow: bool = True) -> Neighbors:
