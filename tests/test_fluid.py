@@ -136,8 +136,7 @@ def test_two_phases_separate_heavy_below_light(rng):
         boundaries=(Tank((0, 0, 0), (0.15, 1, 0.15)),),
     )  # fmt: skip
     pos = lattice((0, 0, 0), (0.15, 0.2, 0.15), 0.025)
-    phase = (pos[1] < 0.1).astype(np.int32)  # heavy liquid on the bottom?  no: light
-    phase = 1 - phase  # heavy (1) on top, light (0) below: they must swap
+    phase = (pos[1] >= 0.1).astype(np.int32)  # heavy (1) on top of light (0): they must swap
     water = Fluid(model, pos, phase=phase)
     heavy_start = water.positions[1][water.state.phase == 1].mean()
     for _ in range(90):
