@@ -206,6 +206,10 @@ def test_bad_state_and_boundaries_are_refused():
     with pytest.raises(ValueError, match="dt must be > 0"):
         Fluid(model, np.zeros((3, 1))).step(0.0)
     assert dataclasses.replace(model, iterations=2).iterations == 2
+    broken = Fluid(model, np.zeros((3, 2)))
+    broken.velocities[1, 0] = np.inf
+    with pytest.raises(FloatingPointError, match="not finite at t = 0 s"):
+        broken.step(0.01)
 
 
 def test_adhesion_holds_a_drop_under_a_ceiling():

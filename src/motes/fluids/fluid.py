@@ -208,6 +208,12 @@ class Fluid:
         g = np.asarray(m.gravity, np.float32)[:, None]
         s.velocities += np.float32(dt) * g
         predicted = s.positions + np.float32(dt) * s.velocities
+        if not np.isfinite(predicted).all():
+            raise FloatingPointError(
+                f"the fluid's state is not finite at t = {self.time:.6g} s: a step diverged "
+                "(lower max_dt, viscosity or cohesion) or non-finite values were written "
+                "into positions or velocities"
+            )
         depth = np.zeros(n, np.float32)
         _kernels.project(*predicted, rows, radius, depth)
 
