@@ -38,3 +38,11 @@ def test_cloth_guide_examples_run(capsys):
     assert namespace["x"][1, 2] == 0.0  # restricted to the x-z plane
     assert namespace["hair"].strands().shape == (200, 10, 3)
     assert "True" in capsys.readouterr().out
+
+
+def test_fluids_guide_examples_run(capsys):
+    namespace = run_blocks(DOCS / "fluids.md")
+    assert namespace["water"].density_error < 0.02
+    assert namespace["front"] > 0.15  # the 0.1 m column spread along the tank
+    assert len(namespace["pairs"]) > 0
+    assert "True" in capsys.readouterr().out

@@ -9,7 +9,7 @@
 True
 """
 
-from . import colliders, io, render, scene, shapes
+from . import colliders, fluids, io, render, scene, shapes, spatial
 from .cloth import Airflow, Cloth, Keyframes, SpringFamily
 from .collide import Friction, Response
 from .emit import (
@@ -32,6 +32,7 @@ from .emit import (
     ShapeNormal,
     Uniform,
 )
+from .fluids import Fluid, FluidModel
 from .forces import (
     CallbackForce,
     CurlNoise,
@@ -67,6 +68,7 @@ from .render.camera import Camera, Projection
 from .render.renderer import Renderer
 from .render.sprites import SpriteStyle
 from .scene import Scene, SceneError, load_scene
+from .spatial import UniformGrid
 from .system import ParticleSystem
 
 __version__ = "0.1.0"
@@ -93,6 +95,8 @@ __all__ = [
     "Emitter",
     "Extinction",
     "FieldForce",
+    "Fluid",
+    "FluidModel",
     "Force",
     "ForceJacobian",
     "Friction",
@@ -132,12 +136,15 @@ __all__ = [
     "Springs",
     "SpriteStyle",
     "Uniform",
+    "UniformGrid",
     "Vortex",
     "Wind",
     "colliders",
+    "fluids",
     "io",
     "load_scene",
     "render",
     "scene",
     "shapes",
+    "spatial",
 ]

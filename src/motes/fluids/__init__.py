@@ -1,0 +1,19 @@
+"""Liquids as particles: position-based fluids (Macklin & Müller 2013) with SPH kernels
+(Müller, Charypar & Gross 2003), walls by signed distance, the lecture's viscosity,
+cohesion and adhesion (Akinci et al. 2013), friction, and non-mixing phases."""
+
+from .boundaries import Box, Plane, Sphere, Tank
+from .fluid import Fluid, FluidState, lattice
+from .model import FluidModel, Phase
+
+__all__ = [
+    "Box",
+    "Fluid",
+    "FluidModel",
+    "FluidState",
+    "Phase",
+    "Plane",
+    "Sphere",
+    "Tank",
+    "lattice",
+]

@@ -1,0 +1,185 @@
+"""Solid boundaries of a fluid, by signed distance: planes, tanks, boxes and spheres.
+
+Each boundary keeps fluid particles on its fluid side: the solver pushes a particle
+closer than its radius back to that distance (so no particle leaves a closed tank), counts
+the wall inside a particle's neighbourhood as fluid at rest density (the missing part of
+the kernel, :func:`motes.fluids.sph.wall_fraction`), and applies the boundary's own
+adhesion (Akinci, Akinci & Teschner 2013) and friction.
+
+Friction models against a boundary, for particles in contact with it:
+
+- ``"scale"``: the tangential velocity is multiplied by ``1 - friction`` each step;
+- ``"depth"``: Coulomb friction from the penetration depth: the push-out ``δ`` of the
+  step is a normal impulse ``δ / Δt``, which removes up to ``friction · δ / Δt`` of
+  tangential speed (all of it when that is smaller: static friction).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import _validate
+
+PLANE, BOX, SPHERE = 0, 1, 2
+FRICTION_MODELS = ("scale", "depth")
+
+#: Columns of a packed boundary row (float64).
+KIND, SIGN, A0, A1, A2, B0, B1, B2, C, ADHESION, FRICTION_MODEL, FRICTION = range(12)
+ROW = 12
+
+
+class Boundary:
+    """Base of the boundaries: adhesion and friction parameters, and packing.
+
+    Parameters
+    ----------
+    adhesion : float
+        Adhesion strength β of Akinci et al. 2013 (eq. 7) toward this boundary [-].
+    friction : float
+        Friction against this boundary: the tangential scale per step in [0, 1] for
+        ``"scale"``, the Coulomb coefficient (>= 0) for ``"depth"``.
+    friction_model : str
+        ``"scale"`` or ``"depth"`` (see the module docstring).
+    """
+
+    def __init__(self, *, adhesion: float = 0.0, friction: float = 0.0, friction_model="scale"):
+        self.adhesion = _validate.non_negative("adhesion", adhesion)
+        self.friction_model = _validate.choice("friction_model", friction_model, FRICTION_MODELS)
+        if friction_model == "scale":
+            self.friction = _validate.unit_interval("friction", friction)
+        else:
+            self.friction = _validate.non_negative("friction", friction)
+
+    def rows(self) -> np.ndarray:
+        """Packed rows (one per primitive), float64, shape (k, 12)."""
+        rows = np.asarray(self._shape_rows(), np.float64).reshape(-1, ROW)
+        rows[:, ADHESION] = self.adhesion
+        rows[:, FRICTION_MODEL] = FRICTION_MODELS.index(self.friction_model)
+        rows[:, FRICTION] = self.friction
+        return rows
+
+    def _shape_rows(self) -> list:
+        raise NotImplementedError
+
+
+class Plane(Boundary):
+    """A half-space solid: fluid lives where ``normal · x >= offset``.
+
+    Parameters
+    ----------
+    normal : sequence of 3 floats
+        Normal pointing into the fluid (normalised here).
+    point : sequence of 3 floats
+        A point on the plane [m].
+    """
+
+    def __init__(self, normal=(0.0, 1.0, 0.0), point=(0.0, 0.0, 0.0), **options):
+        super().__init__(**options)
+        self.normal = _validate.unit_vector("normal", normal)
+        self.point = _validate.vector("point", point)
+
+    def _shape_rows(self):
+        row = np.zeros(ROW)
+        row[KIND], row[SIGN] = PLANE, 1.0
+        row[A0 : A2 + 1] = self.normal
+        row[C] = float(self.normal @ self.point)
+        return [row]
+
+
+class Tank(Boundary):
+    """An axis-aligned box that holds fluid inside: five walls, or six with ``closed``.
+
+    The walls are half-spaces, so an open tank's side walls extend upward without end:
+    a splash over the rim falls back in.
+
+    Parameters
+    ----------
+    lower, upper : sequence of 3 floats
+        Opposite inner corners [m].
+    closed : bool
+        Whether a lid closes the top (y = upper y).
+    """
+
+    def __init__(self, lower, upper, *, closed: bool = False, **options):
+        super().__init__(**options)
+        self.lower = _validate.vector("lower", lower)
+        self.upper = _validate.vector("upper", upper)
+        if np.any(self.upper <= self.lower):
+            raise ValueError(f"upper must exceed lower on every axis, got {lower}, {upper}")
+        self.closed = bool(closed)
+
+    def moved(self, offset) -> None:
+        """Translate the tank by ``offset`` [m] (a shaken tank)."""
+        offset = _validate.vector("offset", offset)
+        self.lower = self.lower + offset
+        self.upper = self.upper + offset
+
+    def _shape_rows(self):
+        rows = []
+        for axis in range(3):
+            for sign, corner in ((1.0, self.lower), (-1.0, self.upper)):
+                if axis == 1 and sign < 0 and not self.closed:
+                    continue
+                normal = np.zeros(3)
+                normal[axis] = sign
+                rows.append(Plane(normal, corner)._shape_rows()[0])
+        return rows
+
+
+class Box(Boundary):
+    """A solid axis-aligned box that fluid flows around.
+
+    Parameters
+    ----------
+    center : sequence of 3 floats
+        Centre [m].
+    half_extents : sequence of 3 floats
+        Half sizes along x, y, z [m], each > 0.
+    """
+
+    def __init__(self, center, half_extents, **options):
+        super().__init__(**options)
+        self.center = _validate.vector("center", center)
+        self.half_extents = _validate.vector("half_extents", half_extents)
+        if np.any(self.half_extents <= 0):
+            raise ValueError(f"half_extents must be > 0, got {self.half_extents.tolist()}")
+
+    def _shape_rows(self):
+        row = np.zeros(ROW)
+        row[KIND], row[SIGN] = BOX, 1.0
+        row[A0 : A2 + 1] = self.center
+        row[B0 : B2 + 1] = self.half_extents
+        return [row]
+
+
+class Sphere(Boundary):
+    """A solid ball (fluid outside) or, with ``inside``, a spherical bowl holding fluid.
+
+    Parameters
+    ----------
+    center : sequence of 3 floats
+        Centre [m].
+    radius : float
+        Radius [m], > 0.
+    inside : bool
+        Fluid inside the sphere instead of outside.
+    """
+
+    def __init__(self, center, radius: float, *, inside: bool = False, **options):
+        super().__init__(**options)
+        self.center = _validate.vector("center", center)
+        self.radius = _validate.positive("radius", radius)
+        self.inside = bool(inside)
+
+    def _shape_rows(self):
+        row = np.zeros(ROW)
+        row[KIND], row[SIGN] = SPHERE, (-1.0 if self.inside else 1.0)
+        row[A0 : A2 + 1] = self.center
+        row[C] = self.radius
+        return [row]
+
+
+def pack(boundaries) -> np.ndarray:
+    """All boundaries as packed rows, float64, shape (k, 12)."""
+    rows = [b.rows() for b in boundaries]
+    return np.concatenate(rows) if rows else np.zeros((0, ROW))

@@ -1,0 +1,349 @@
+"""``[[body]] type = "fluid"``: a position-based liquid in a scene (keys in
+``docs/scene-format.md``, section "Fluid bodies").
+
+The body owns a :class:`motes.fluids.Fluid`, its nozzles (sources that emit layers of
+particles) and shaken tanks, and draws itself as sprites, as one metaball surface per
+phase, or both: with ``spray = true`` the particles in thin places (few neighbours, the
+density below ``spray_below`` of rest) are drawn as sprites and left out of the surface.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import fluids
+from ..render import geometry
+from ..render.metaballs import Metaballs
+from ..render.shading import Material
+from ..render.sprites import SpriteStyle
+from .bodies import Body, BuildContext, register
+from .schema import (
+    SceneError,
+    Table,
+    boolean,
+    build,
+    color,
+    integer,
+    number,
+    one_of,
+    positive,
+    vector,
+)
+
+WATER = (0.25, 0.45, 0.75)
+
+
+class _Nozzle:
+    """Emits a disc of particles (a square pattern of ``spacing``) each time the last
+    layer has moved one spacing away: the flow rate follows from speed and radius."""
+
+    def __init__(self, position, velocity, radius, spacing, phase, start, stop):
+        self.position = np.asarray(position, np.float64)
+        self.velocity = np.asarray(velocity, np.float64)
+        speed = float(np.linalg.norm(self.velocity))
+        if speed == 0.0:
+            raise ValueError("velocity must be non-zero")
+        axis = self.velocity / speed
+        helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        u = np.cross(axis, helper)
+        u /= np.linalg.norm(u)
+        w = np.cross(axis, u)
+        # A square pattern, so that layers one spacing apart are the rest lattice: a
+        # denser (hexagonal) one would start compressed and the solver would spring
+        # the jet apart.
+        k = math.ceil(radius / spacing)
+        a, b = np.meshgrid(np.arange(-k, k + 1), np.arange(-k, k + 1), indexing="ij")
+        x, y = a * spacing, b * spacing
+        inside = x * x + y * y <= radius * radius + 1e-12
+        self.layer = (u[:, None] * x[inside] + w[:, None] * y[inside]).astype(np.float64)
+        self.interval = spacing / speed
+        self.phase, self.start, self.stop = phase, start, stop
+        self.clock = 0.0
+
+    def emit(self, fluid: fluids.Fluid, dt: float, limit: int) -> None:
+        if not self.start <= fluid.time < self.stop:
+            return
+        self.clock += dt
+        while self.clock >= self.interval:
+            self.clock -= self.interval
+            k = self.layer.shape[1]
+            if len(fluid) + k > limit:
+                return
+            # A layer emitted `clock` ago has travelled that far already.
+            offset = self.velocity * self.clock
+            positions = self.position[:, None] + self.layer + offset[:, None]
+            velocities = np.repeat(self.velocity[:, None], k, axis=1)
+            fluid.add(positions, velocities=velocities, phase=self.phase)
+
+
+class _Shake:
+    """Moves a tank by ``amplitude · sin(2π f t)`` [m]."""
+
+    def __init__(self, tank, amplitude, frequency):
+        self.tank, self.amplitude, self.frequency = tank, np.asarray(amplitude), frequency
+        self.offset = np.zeros(3)
+
+    def move(self, time: float) -> None:
+        target = self.amplitude * math.sin(2 * math.pi * self.frequency * time)
+        self.tank.moved(target - self.offset)
+        self.offset = target
+
+
+class _ParticleView:
+    """What ``Renderer.draw_system`` reads from a system: positions, colours, sizes."""
+
+    def __init__(self, positions, colors, radius):
+        self.positions, self.colors, self.radius = positions, colors, radius
+        self.store = self
+
+    def has(self, name: str) -> bool:
+        return name in ("color", "size")
+
+    def __len__(self) -> int:
+        return self.positions.shape[1]
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name == "position":
+            return self.positions.T
+        if name == "color":
+            return self.colors
+        if name == "size":
+            return np.full(len(self), self.radius, np.float32)
+        raise KeyError(name)
+
+
+class FluidBody(Body):
+    """A liquid in a scene: steps the fluid, its nozzles and shaken tanks; draws it."""
+
+    def __init__(self, fluid, *, colors, nozzles, shakes, walls, look, limit):
+        self.fluid = fluid
+        self.colors = np.asarray(colors, np.float32)
+        self.nozzles, self.shakes, self.walls = nozzles, shakes, walls
+        self.look = look
+        self.limit = limit
+        self.metaballs = None
+        if look["mode"] == "surface":
+            self.metaballs = Metaballs.from_radius(
+                look["surface_radius"], sharpness=look["sharpness"], cell_size=look["cell_size"]
+            )
+
+    def step(self, dt: float) -> None:
+        for shake in self.shakes:
+            shake.move(self.fluid.time + dt)
+        for nozzle in self.nozzles:
+            nozzle.emit(self.fluid, dt, self.limit)
+        self.fluid.step(dt)
+
+    def count(self) -> int:
+        return len(self.fluid)
+
+    def _spray(self) -> np.ndarray:
+        """Particles in thin places (see the module docstring)."""
+        s = self.fluid.state
+        if not self.look["spray"]:
+            return np.zeros(len(self.fluid), bool)
+        rest = np.array([p.rest_density for p in self.fluid.model.phases], np.float32)
+        return s.density < self.look["spray_below"] * rest[s.phase]
+
+    def particles(self) -> list:
+        s = self.fluid.state
+        # Sprites: every particle, or with a surface only the spray.
+        keep = np.ones(len(self.fluid), bool) if self.metaballs is None else self._spray()
+        if not keep.any():
+            return []
+        rgba = np.empty((int(keep.sum()), 4), np.float32)
+        rgba[:, :3] = self.colors[s.phase[keep]]
+        rgba[:, 3] = self.look["alpha"]
+        view = _ParticleView(s.positions[:, keep], rgba, self.look["radius"])
+        return [(view, SpriteStyle(kind="sprite", blend="alpha"))]
+
+    def drawables(self) -> list:
+        items = list(self.walls)
+        if self.metaballs is None or len(self.fluid) == 0:
+            return items
+        s = self.fluid.state
+        body = ~self._spray()
+        material = Material(specular=self.look["specular"], shininess=48.0)
+        for phase, rgb in enumerate(self.colors):
+            chosen = body & (s.phase == phase)
+            if chosen.sum() < 2:
+                continue
+            mesh = self.metaballs.mesh(s.positions[:, chosen].T)
+            if len(mesh.faces):
+                items.append(geometry.Mesh(mesh, color=tuple(rgb), material=material))
+        return items
+
+
+# --- reading the table -------------------------------------------------------------------
+
+
+def _phases(table: Table):
+    phases, colors = [], []
+    for item in table.tables("phase"):
+        rest = item.get("rest_density", positive(), 1000.0)
+        cohesion = item.get("cohesion", number(0.0), 0.0)
+        phases.append(build(item.path, fluids.Phase, rest, cohesion))
+        colors.append(item.get("color", color, WATER)[:3])
+        item.finish()
+    if not phases:
+        return (fluids.Phase(),), [WATER]
+    return tuple(phases), colors
+
+
+def _wall(item: Table, walls_drawn: list, shakes: list):
+    kind = item.get("type", one_of("plane", "tank", "box", "sphere"))
+    options = {
+        "adhesion": item.get("adhesion", number(0.0), 0.0),
+        "friction": item.get("friction", number(0.0), 0.0),
+        "friction_model": item.get(
+            "friction_model", one_of(*fluids.boundaries.FRICTION_MODELS), "scale"
+        ),
+    }  # fmt: skip
+    if kind != "plane":  # a plane is not drawn (an [[object]] ground can show it)
+        visible = item.get("visible", boolean, True)
+        rgb = item.get("color", color, (0.55, 0.55, 0.58))[:3]
+    if kind == "plane":
+        normal = item.get("normal", vector(), (0.0, 1.0, 0.0))
+        point = item.get("point", vector(), (0.0, 0.0, 0.0))
+        wall = build(item.path, fluids.Plane, normal, point, **options)
+    elif kind == "tank":
+        lower = item.get("lower", vector())
+        upper = item.get("upper", vector())
+        closed = item.get("closed", boolean, False)
+        amplitude = item.get("shake_amplitude", vector(), (0.0, 0.0, 0.0))
+        frequency = item.get("shake_frequency", number(0.0), 0.0)
+        thickness = item.get("wall_thickness", positive(), 0.02)
+        wall = build(item.path, fluids.Tank, lower, upper, closed=closed, **options)
+        if frequency > 0 and any(amplitude):
+            shakes.append(_Shake(wall, amplitude, frequency))
+        if visible:
+            walls_drawn.append(_TankWalls(wall, thickness, rgb))
+    elif kind == "box":
+        center = item.get("center", vector())
+        size = item.get("size", vector())
+        if min(size) <= 0:
+            raise SceneError(item.key_path("size"), f"must be > 0 on every axis, got {list(size)}")
+        wall = build(item.path, fluids.Box, center, [0.5 * x for x in size], **options)
+        if visible:
+            walls_drawn.append(geometry.Box(center, size, color=rgb))
+    else:
+        center = item.get("center", vector())
+        radius = item.get("radius", positive())
+        inside = item.get("inside", boolean, False)
+        wall = build(item.path, fluids.Sphere, center, radius, inside=inside, **options)
+        if visible and not inside:
+            walls_drawn.append(geometry.Sphere(center, radius, color=rgb))
+    item.finish()
+    return wall
+
+
+class _TankWalls:
+    """Draws a tank's floor, side walls and back wall (the side facing -z) as slabs,
+    following the tank when it moves; the front (+z) stays open to the camera."""
+
+    def __init__(self, tank, thickness, rgb):
+        self.tank, self.thickness, self.rgb = tank, thickness, rgb
+
+    def boxes(self):
+        lo, hi, t = self.tank.lower, self.tank.upper, self.thickness
+        c = 0.5 * (lo + hi)
+        size = hi - lo
+        slabs = [
+            ((c[0], lo[1] - t / 2, c[2]), (size[0] + 2 * t, t, size[2] + 2 * t)),
+            ((lo[0] - t / 2, c[1], c[2]), (t, size[1], size[2] + 2 * t)),
+            ((hi[0] + t / 2, c[1], c[2]), (t, size[1], size[2] + 2 * t)),
+            ((c[0], c[1], lo[2] - t / 2), (size[0], size[1], t)),
+        ]
+        return [geometry.Box(center, dims, color=self.rgb) for center, dims in slabs]
+
+
+@register("fluid")
+def build_fluid(table: Table, context: BuildContext) -> FluidBody:
+    """Read a ``[[body]] type = "fluid"`` table."""
+    spacing = table.get("spacing", positive())
+    phases, colors = _phases(table)
+    drawn, shakes = [], []
+    walls = [_wall(item, drawn, shakes) for item in table.tables("wall")]
+    settings = {
+        "kernel_ratio": table.get("kernel_ratio", number(), 2.0),
+        "iterations": table.get("iterations", integer(), 4),
+        "xsph": table.get("xsph", number(), 0.01),
+        "viscosity": table.get("viscosity", number(), 0.0),
+        "viscosity_width": table.get("viscosity_width", positive(), None),
+        "repulsion": table.get("repulsion", number(), 0.0),
+        "tensile": table.get("tensile", number(), 0.0),
+        "relaxation": table.get("relaxation", number(), 0.01),
+        "max_dt": table.get("max_dt", number(), 1.0 / 240.0),
+        "gravity": table.get("gravity", vector(), (0.0, -9.81, 0.0)),
+    }
+    model = build(table.path, fluids.FluidModel, spacing=spacing, phases=phases,
+                  boundaries=tuple(walls), **settings)  # fmt: skip
+    positions, velocities, phase = [], [], []
+    for item in table.tables("block"):
+        lower = item.get("lower", vector())
+        upper = item.get("upper", vector())
+        index = item.get("phase", integer(0, len(phases) - 1), 0)
+        speed = item.get("velocity", vector(), (0.0, 0.0, 0.0))
+        block = build(item.path, fluids.lattice, lower, upper, spacing)
+        positions.append(block)
+        velocities.append(np.repeat(np.asarray(speed)[:, None], block.shape[1], axis=1))
+        phase.append(np.full(block.shape[1], index, np.int32))
+        item.finish()
+    nozzles = []
+    for item in table.tables("source"):
+        nozzles.append(
+            build(
+                item.path, _Nozzle,
+                item.get("position", vector()), item.get("velocity", vector()),
+                item.get("radius", positive()), spacing,
+                item.get("phase", integer(0, len(phases) - 1), 0),
+                item.get("start", number(0.0), 0.0), item.get("stop", number(0.0), math.inf),
+            )
+        )  # fmt: skip
+        item.finish()
+    limit = table.get("max_particles", integer(1), 20_000)
+    if positions:
+        pos = np.concatenate(positions, axis=1)
+        fluid = fluids.Fluid(model, pos, velocities=np.concatenate(velocities, axis=1),
+                             phase=np.concatenate(phase))  # fmt: skip
+    else:
+        fluid = fluids.Fluid(model, np.zeros((3, 0)))
+    if len(fluid) > limit:
+        raise SceneError(table.key_path("max_particles"),
+                         f"the blocks hold {len(fluid)} particles, more than {limit}")  # fmt: skip
+    look = _look(table.table("render", optional=True), spacing)
+    return FluidBody(fluid, colors=colors, nozzles=nozzles, shakes=shakes,
+                     walls=_WallList(drawn), look=look, limit=limit)  # fmt: skip
+
+
+class _WallList:
+    """Iterates the wall geometry of the current state (tanks move when shaken)."""
+
+    def __init__(self, items):
+        self.items = items
+
+    def __iter__(self):
+        for item in self.items:
+            if isinstance(item, _TankWalls):
+                yield from item.boxes()
+            else:
+                yield item
+
+
+def _look(table: Table | None, spacing: float) -> dict:
+    empty = Table({}, "render") if table is None else table
+    look = {
+        "mode": empty.get("mode", one_of("particles", "surface"), "surface"),
+        "radius": empty.get("radius", positive(), 0.6 * spacing),
+        "alpha": empty.get("alpha", number(0.0, 1.0), 0.8),
+        "surface_radius": empty.get("surface_radius", positive(), 1.2 * spacing),
+        "sharpness": empty.get("sharpness", positive(), 1.5),
+        "cell_size": empty.get("cell_size", positive(), 0.6 * spacing),
+        "spray": empty.get("spray", boolean, False),
+        "spray_below": empty.get("spray_below", number(0.0, 1.0), 0.55),
+        "specular": empty.get("specular", number(0.0), 0.6),
+    }
+    empty.finish()
+    return look

@@ -1,0 +1,259 @@
+"""SPH kernels against quadrature and closed forms; solver kernels against NumPy twins."""
+
+import math
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy.integrate import quad
+
+import naive_fluids as naive
+from motes.fluids import Box, Plane, Sphere, Tank, _kernels, sph
+from motes.fluids.boundaries import pack
+from motes.spatial import UniformGrid
+
+H = 0.1
+
+
+def radial_integral(f, h=H):
+    return quad(lambda r: 4 * math.pi * r * r * f(r), 0, h, epsabs=1e-12, limit=200)[0]
+
+
+@pytest.mark.parametrize(
+    "kernel",
+    [
+        lambda r: sph.poly6(r * r, H),
+        lambda r: sph.spiky(r, H),
+        lambda r: sph.viscosity(max(r, 1e-12), H),
+    ],
+    ids=["poly6", "spiky", "viscosity"],
+)
+def test_kernels_integrate_to_one(kernel):
+    # Adaptive quadrature of a polynomial (or r^-1 times r², integrable) to 1e-9.
+    assert radial_integral(kernel) == pytest.approx(1.0, abs=1e-9)
+
+
+def test_kernels_match_the_papers_closed_forms():
+    r = np.linspace(0.001, 0.099, 50)
+    poly6 = [sph.poly6(x * x, H) for x in r]
+    assert_allclose(poly6, 315 / (64 * np.pi * H**9) * (H * H - r * r) ** 3, rtol=1e-12)
+    # Spiky gradient and viscosity Laplacian by central differences of the kernels
+    # (step 1e-6 h: truncation ~1e-9 relative, round-off ~1e-8).
+    e = 1e-7
+    dspiky = [(sph.spiky(x + e, H) - sph.spiky(x - e, H)) / (2 * e) for x in r]
+    assert_allclose([sph.spiky_gradient_scale(x, H) * x for x in r], dspiky, rtol=1e-6)
+
+    def lap(x, e=1e-5):  # second differences: a wider step keeps round-off ~1e-8
+        w = lambda y: sph.viscosity(y, H)  # noqa: E731
+        d2 = (w(x + e) - 2 * w(x) + w(x - e)) / e**2
+        return d2 + 2 / x * (w(x + e) - w(x - e)) / (2 * e)
+
+    r = np.linspace(0.01, 0.09, 9)
+    assert_allclose([sph.viscosity_laplacian(x, H) for x in r], [lap(x) for x in r], rtol=1e-6)
+    assert sph.poly6(H * H * 1.01, H) == 0 and sph.spiky_gradient_scale(0.0, H) == 0
+
+
+def test_wall_fraction_is_the_half_space_integral():
+    d = np.linspace(0, H, 21)
+    ours = np.array([sph.wall_fraction(x, H) for x in d])
+    assert_allclose(ours, naive.wall_fraction(d, H), atol=1e-7)  # trapezoid on 4000 nodes
+    assert ours[0] == pytest.approx(0.5) and ours[-1] == pytest.approx(0.0, abs=1e-15)
+    # The same fraction from the 3D kernel: poly6 over z > d by 2D quadrature in (z, ρ).
+    from scipy.integrate import dblquad
+
+    for x in (0.0, 0.03, 0.07):
+        direct = dblquad(
+            lambda rho, z: 2 * math.pi * rho * sph.poly6(rho * rho + z * z, H),
+            x, H, 0, lambda z: math.sqrt(max(H * H - z * z, 0.0)),
+        )[0]  # fmt: skip
+        assert sph.wall_fraction(x, H) == pytest.approx(direct, abs=1e-8)
+    e = 1e-7
+    for x in (0.01, 0.05, 0.09):
+        slope = (sph.wall_fraction(x + e, H) - sph.wall_fraction(x - e, H)) / (2 * e)
+        assert sph.wall_fraction_slope(x, H) == pytest.approx(slope, rel=1e-5)
+
+
+def test_lattice_number_density_is_near_one_per_cell():
+    # The poly6 lattice sum at h = 2 spacings is 1 % above 1/spacing³ (discretisation).
+    assert sph.lattice_number_density(0.1, 0.2) * 0.1**3 == pytest.approx(1.0, abs=0.02)
+
+
+def scene(rng, n_side=6, spacing=0.05):
+    """A jittered block in a tank corner beside a solid box and ball: every wall kind."""
+    g = (np.arange(n_side) + 0.5) * spacing
+    p = np.stack(np.meshgrid(g, g, g, indexing="ij")).reshape(3, -1).T
+    p = p + rng.normal(0, 0.1 * spacing, p.shape)
+    rows = pack(
+        [
+            Tank((0, 0, 0), (1, 1, 1), closed=True),
+            Box((0.4, 0.15, 0.15), (0.05, 0.05, 0.05)),
+            Sphere((0.15, 0.4, 0.15), 0.06),
+            Sphere((0.15, 0.15, 0.15), 1.0, inside=True),
+            Plane((1, 1, 0), (0.0, 0.02, 0)),
+        ]
+    )
+    return p, rows
+
+
+def csr(p, h):
+    grid = UniformGrid(h).build(p.T.astype(np.float32))
+    return grid.neighbors(h), grid
+
+
+def test_density_lambda_and_correction_match_the_twin(rng):
+    p, rows = scene(rng)
+    n, h = len(p), 0.1
+    delta0 = sph.lattice_number_density(0.05, h)
+    weight = rng.uniform(0.5, 1.5, n).astype(np.float32)
+    lists, _ = csr(p, h)
+    pf = p.T.astype(np.float32)
+    delta, lam = np.empty(n, np.float32), np.empty(n, np.float32)
+    _kernels.density_lambda(
+        *pf, lists.offsets, lists.indices, weight, rows, h, 1 / delta0, 30.0, delta, lam
+    )
+    ref_delta, ref_lam = naive.density_lambda(
+        pf.T.astype(float), weight.astype(float), rows, h, delta0, 30.0
+    )
+    # float32 sums of ~30 terms of similar size: relative round-off ~1e-6.
+    assert_allclose(delta, ref_delta, rtol=2e-5)
+    assert (lam < 0).sum() > 10
+    assert_allclose(lam, ref_lam, rtol=1e-4, atol=1e-5 * np.abs(ref_lam).max())
+    out = np.empty((3, n), np.float32)
+    radius = 0.025
+    _kernels.correction(
+        *pf, lists.offsets, lists.indices, weight, lam, rows, h, 1 / delta0, 1e-4, 1e-3,
+        radius, out,
+    )  # fmt: skip
+    p64 = pf.T.astype(float)
+    dp = naive.correction(p64, weight.astype(float), lam.astype(float), rows, h, delta0, 1e-4, 1e-3)
+    ref, pushed = naive.project(p64 + dp, rows, radius)
+    assert pushed.max() > 0  # some corrections ended inside a wall
+    # Corrections of ~1e-3 m on positions of ~0.1 m, kept in float32: 1e-7 m round-off
+    # on the position, 1e-4 of the largest correction on the correction.
+    assert_allclose(out.T - p64, ref - p64, rtol=1e-4, atol=1e-4 * np.abs(dp).max() + 1e-7)
+
+
+def test_walls_free_share_is_exact_at_a_tank_corner():
+    rows = pack([Tank((0, 0, 0), (1, 1, 1), closed=True)])
+    free, *_ = _kernels.walls(rows, 0.0, 0.0, 0.0, H)
+    assert free == pytest.approx(1 / 8)
+    free, gx, gy, gz = _kernels.walls(rows, 0.5, 0.5, 0.0 + 0.3 * H, H)
+    assert free == pytest.approx(1 - sph.wall_fraction(0.3 * H, H))
+    assert (gx, gy) == (0.0, 0.0) and gz == pytest.approx(sph.wall_fraction_slope(0.3 * H, H))
+
+
+def test_exchange_matches_the_twin_and_the_lecture(rng):
+    p, _ = scene(rng, n_side=5)
+    n, h = len(p), 0.1
+    v = rng.normal(0, 1, (n, 3))
+    phase = rng.integers(0, 2, n).astype(np.int32)
+    mass = np.array([0.125, 0.2])[phase]
+    delta = rng.uniform(900, 1100, n)
+    gamma = np.array([0.5, 2.0])
+    lists, _ = csr(p, h)
+    coefficients = np.array([h, 0.004, 0.05, 3.0, 1 / (2 * 0.04**2), 20.0, 1000.0])
+    out = np.empty((3, n), np.float32)
+    pf, vf = p.T.astype(np.float32), v.T.astype(np.float32)
+    args = (lists.offsets, lists.indices, phase, mass.astype(np.float32), delta.astype(np.float32))
+    normals = np.empty((3, n), np.float32)
+    _kernels.surface_normals(*pf, lists.offsets, lists.indices, phase, args[-1], h, normals)
+    ref_normals = naive.surface_normals(
+        pf.T.astype(float), phase, delta.astype(np.float32).astype(float), h
+    )
+    assert_allclose(normals.T, ref_normals, rtol=1e-4, atol=1e-5)
+    _kernels.exchange(*pf, *vf, *args, normals, gamma, coefficients, out)
+    ref = naive.exchange(
+        pf.T.astype(float), vf.T.astype(float), phase, mass.astype(np.float32).astype(float),
+        delta.astype(np.float32).astype(float), gamma, h, 0.004, 0.05, 3.0, 0.04, 20.0, 1000.0,
+    )  # fmt: skip
+    assert_allclose(out.T, ref, rtol=1e-4, atol=1e-5)
+    # The lecture's viscosity alone, against its pair-by-pair loop.
+    coefficients[[2, 5]] = 0.0
+    _kernels.exchange(*pf, *vf, *args, normals, np.zeros(2), coefficients, out)
+    lecture = naive.momentum_exchange_pairs(
+        pf.T.astype(float),
+        vf.T.astype(float),
+        mass.astype(np.float32).astype(float),
+        3.0,
+        0.04,
+        h,
+        0.004,
+    )
+    assert_allclose(out.T, lecture, rtol=1e-4, atol=1e-5)
+
+
+def test_projection_puts_particles_at_the_radius_from_every_wall(rng):
+    rows = pack(
+        [
+            Tank((0, 0, 0), (1, 1, 1), closed=True),
+            Sphere((0.5, 0.5, 0.5), 0.2),
+            Box((0.2, 0.2, 0.2), (0.1, 0.05, 0.1)),
+        ]
+    )
+    p = rng.uniform(-0.5, 1.5, (3, 5000)).astype(np.float32)
+    depth = np.empty(5000, np.float32)
+    before = p.copy()
+    _kernels.project(*p, rows, 0.01, depth)
+    assert np.all((p >= 0.01 - 1e-6) & (p <= 0.99 + 1e-6))
+    for row in rows[6:]:
+        d, _ = naive.signed_distance(row, p.T.astype(float))
+        assert d.min() > 0.01 - 1e-5 or row[0] == 1  # the box may push into the ball's reach
+    moved = np.linalg.norm(p - before, axis=0)
+    assert np.all(depth <= moved + 1e-5) and depth.max() > 0.4
+
+
+def test_signed_distances_match_the_twin(rng):
+    rows = pack(
+        [
+            Box((0.1, 0.2, 0.3), (0.2, 0.1, 0.3)),
+            Sphere((0, 0, 0), 0.5, inside=True),
+            Plane((1, 2, 3), (0.1, 0, 0)),
+        ]
+    )
+    p = rng.uniform(-1, 1, (200, 3))
+    for b, row in enumerate(rows):
+        d, nrm = naive.signed_distance(row, p)
+        ours = np.array([_kernels.signed_distance(rows, b, *x) for x in p])
+        assert_allclose(ours[:, 0], d, atol=1e-12)
+        assert_allclose(ours[:, 1:], nrm, atol=1e-12)
+
+
+def test_boundary_friction_and_adhesion():
+    rows = pack(
+        [
+            Plane((0, 1, 0), (0, 0, 0), friction=0.25),
+            Plane((0, -1, 0), (0, 1, 0), adhesion=2.0, friction=0.5, friction_model="depth"),
+        ]
+    )
+    h, radius, dt = 0.1, 0.025, 0.01
+    x = np.array([0.0, 0.0], np.float32)
+    y = np.array([0.025, 0.975], np.float32)
+    z = np.zeros(2, np.float32)
+    vx, vy, vz = (
+        np.array([1.0, 1.0], np.float32),
+        np.array([0.0, 0.0], np.float32),
+        np.zeros(2, np.float32),
+    )
+    depth = np.array([0.0, 0.001], np.float32)
+    _kernels.boundary_velocity(
+        x, y, z, vx, vy, vz, depth, rows, np.array([h, radius, dt, 1000 * 0.05])
+    )
+    # Scale friction keeps 75 %; depth friction removes μ·depth/dt; the second particle
+    # touches the lid, which pulls it with the whole wall integral of the adhesion spline.
+    assert vx[0] == pytest.approx(0.75)
+    assert vx[1] == pytest.approx(1.0 - 0.5 * 0.001 / dt, rel=1e-5)
+    pull = dt * 2.0 * 1000 * 0.05 * _kernels.wall_adhesion(0.025, h)
+    assert pull > 0 and vy[1] == pytest.approx(pull, rel=1e-5)
+
+
+def test_cell_density_matches_brute_force(rng):
+    pts = rng.random((3, 3000), dtype=np.float32)
+    h = 0.08
+    grid = UniformGrid(h / 2).build(pts)
+    out = np.empty(3000, np.float32)
+    _kernels.cell_density(*grid.sorted_positions, grid.cell_start, grid.origin,
+                          1.0 / grid.cell, grid.dims, h, out)  # fmt: skip
+    p = grid.sorted_positions.T.astype(np.float64)
+    r = np.linalg.norm(p[:, None] - p[None, :], axis=2)
+    # float32 sums of ~40 kernel values: 1e-5 relative.
+    assert_allclose(out, naive.poly6(r, h).sum(axis=1), rtol=1e-5)
