@@ -4,7 +4,8 @@
 
 Writes ``NAME.png`` (the frame at ``--still-at`` of the run, 640×360) and ``NAME.gif``
 (every third frame, 256×144) for each scene, and ``docs/gallery/README.md`` with the
-particle counts. Everything is seeded, so the same machine gives the same files.
+particle counts (with ``--only``, the other scenes' sections are kept). Everything is
+seeded, so the same machine gives the same files.
 """
 
 from __future__ import annotations
@@ -64,21 +65,14 @@ def main() -> None:
         counts = ", ".join(f"{k} {v}" for k, v in scene.counts().items())
         print(f"{name:10s} {scene.frame_count:4d} frames  {seconds:6.1f} s  {counts}")
         rows.append((name, scenes[name], still_frame, scene.frame_count, counts))
-    if not args.only:
-        write_index(args.out, rows)
+    write_index(args.out, rows, scenes)
 
 
-def write_index(out: Path, rows) -> None:
-    lines = [
-        "# Gallery",
-        "",
-        "Every built-in scene, rendered by `python scripts/gallery.py` (stills 640×360,",
-        "animations 256×144 at a third of the frame rate). Run any of them at full size with",
-        "`motes run NAME`.",
-        "",
-    ]
+def write_index(out: Path, rows, scenes) -> None:
+    """Write ``README.md``: the sections of ``rows``, and the other built-in scenes' kept."""
+    sections = _sections(out / "README.md")
     for name, description, still_frame, frames, counts in rows:
-        lines += [
+        sections[name] = [
             f"## {name}",
             "",
             description,
@@ -88,7 +82,33 @@ def write_index(out: Path, rows) -> None:
             f"Still: frame {still_frame} of {frames}. Live particles at the end: {counts}.",
             "",
         ]
+    lines = [
+        "# Gallery",
+        "",
+        "Every built-in scene, rendered by `python scripts/gallery.py` (stills 640×360,",
+        "animations 256×144 at a third of the frame rate). Run any of them at full size with",
+        "`motes run NAME`.",
+        "",
+    ]
+    for name in sorted(sections):
+        if name in scenes:
+            lines += sections[name]
     (out / "README.md").write_text("\n".join(lines))
+
+
+def _sections(index: Path) -> dict[str, list[str]]:
+    """The per-scene sections of an existing index, by scene name."""
+    if not index.exists():
+        return {}
+    sections: dict[str, list[str]] = {}
+    current = None
+    for line in index.read_text().splitlines():
+        if line.startswith("## "):
+            current = line[3:].strip()
+            sections[current] = []
+        if current is not None:
+            sections[current].append(line)
+    return sections
 
 
 if __name__ == "__main__":
