@@ -1,0 +1,58 @@
+"""Plain NumPy/Python twins of the constraint kernels (slow, obviously correct)."""
+
+import numpy as np
+
+DISTANCE, ANGLE = 0, 1
+
+
+def greedy_colors(ends, n):
+    """Lowest colour not used by an earlier constraint sharing a particle."""
+    used = [set() for _ in range(n)]
+    colors = []
+    for row in ends:
+        particles = [p for p in row if p >= 0]
+        taken = set().union(*(used[p] for p in particles))
+        color = next(c for c in range(len(ends) + 1) if c not in taken)
+        colors.append(color)
+        for p in particles:
+            used[p].add(color)
+    return np.array(colors)
+
+
+def project(x, w, kind, ends, lo, hi, compliance, stiffness, lam, c, dt, approx):
+    """Project constraint ``c`` on x ((n, 3) float64), in place; the kernel's equations."""
+    i, j, k = ends[c]
+    d = x[j] - x[i]
+    if kind[c] == ANGLE:
+        a = np.linalg.norm(x[i] - x[k])
+        b = np.linalg.norm(x[j] - x[k])
+        t_lo = np.sqrt(max(a * a + b * b - 2 * a * b * lo[c], 0.0))
+        t_hi = np.sqrt(max(a * a + b * b - 2 * a * b * hi[c], 0.0))
+    else:
+        t_lo, t_hi = lo[c], hi[c]
+    length = np.linalg.norm(d)
+    if length == 0:
+        return
+    target = np.clip(length, t_lo, t_hi)
+    if length == target or w[i] + w[j] == 0:
+        return
+    alpha = compliance[c] / dt**2
+    if approx and alpha == 0 and kind[c] == DISTANCE:
+        # Jakobsen's square-root-free form of (length - target) / length.
+        s = stiffness[c] * (length**2 - target**2) / (length**2 + target**2)
+        s /= w[i] + w[j]
+    else:
+        dlam = stiffness[c] * (-(length - target) - alpha * lam[c]) / (w[i] + w[j] + alpha)
+        lam[c] += dlam
+        s = -dlam / length
+    x[i] += w[i] * s * d
+    x[j] -= w[j] * s * d
+
+
+def sweep(x, w, cs, dt, approx=False):
+    """One sweep of a ConstraintSet's constraints in slot order, on x (n, 3)."""
+    for c in range(len(cs.ends)):
+        project(
+            x, w, cs.kind, cs.ends, cs.lo, cs.hi, cs.compliance, cs.stiffness, cs.multipliers,
+            c, dt, approx,
+        )  # fmt: skip
