@@ -19,8 +19,12 @@ def greedy_colors(ends, n):
     return np.array(colors)
 
 
-def project(x, w, kind, ends, lo, hi, compliance, stiffness, lam, c, dt, approx):
-    """Project constraint ``c`` on x ((n, 3) float64), in place; the kernel's equations."""
+def project(x, w, kind, ends, lo, hi, compliance, stiffness, lam, c, dt, approx, q=None):
+    """Project constraint ``c`` on x ((n, 3) float64), in place; the kernel's equations.
+
+    With ``q`` (positions at the start of the step) distance constraints push along the
+    pair's direction in ``q`` (SHAKE) when it is within 60° of the current one.
+    """
     i, j, k = ends[c]
     d = x[j] - x[i]
     if kind[c] == ANGLE:
@@ -37,6 +41,16 @@ def project(x, w, kind, ends, lo, hi, compliance, stiffness, lam, c, dt, approx)
     if length == target or w[i] + w[j] == 0:
         return
     alpha = compliance[c] / dt**2
+    if q is not None and kind[c] == DISTANCE:
+        g = q[j] - q[i]
+        cos = d @ g / (length * np.linalg.norm(g))
+        if cos > 0.5:
+            w_eff = (w[i] + w[j]) * cos
+            dlam = stiffness[c] * (-(length - target) - alpha * lam[c]) / (w_eff + alpha)
+            lam[c] += dlam
+            x[i] += w[i] * dlam / np.linalg.norm(g) * g * -1
+            x[j] -= w[j] * dlam / np.linalg.norm(g) * g * -1
+            return
     if approx and alpha == 0 and kind[c] == DISTANCE:
         # Jakobsen's square-root-free form of (length - target) / length.
         s = stiffness[c] * (length**2 - target**2) / (length**2 + target**2)
@@ -49,10 +63,27 @@ def project(x, w, kind, ends, lo, hi, compliance, stiffness, lam, c, dt, approx)
     x[j] -= w[j] * s * d
 
 
-def sweep(x, w, cs, dt, approx=False):
+def sweep(x, w, cs, dt, approx=False, q=None):
     """One sweep of a ConstraintSet's constraints in slot order, on x (n, 3)."""
     for c in range(len(cs.ends)):
         project(
-            x, w, cs.kind, cs.ends, cs.lo, cs.hi, cs.compliance, cs.stiffness, cs.multipliers,
-            c, dt, approx,
-        )  # fmt: skip
+            x,
+            w,
+            cs.kind,
+            cs.ends,
+            cs.lo,
+            cs.hi,
+            cs.compliance,
+            cs.stiffness,
+            cs.multipliers,
+            c,
+            dt,
+            approx,
+            q,
+        )
+
+
+def verlet(x, q, w, g, keep, h):
+    """Position Verlet on (n, 3) arrays; returns the new (x, q)."""
+    moving = (w > 0)[:, None]
+    return np.where(moving, x + keep * (x - q) + h * h * np.asarray(g), x), x.copy()

@@ -40,17 +40,19 @@ def test_colors_never_share_a_particle_and_match_the_greedy_twin():
     assert_array_equal(colors, expected[cs.order])
 
 
-@pytest.mark.parametrize("approx", [False, True])
-def test_sweep_matches_the_twin(approx):
+@pytest.mark.parametrize(("approx", "shake"), [(False, False), (True, False), (False, True)])
+def test_sweep_matches_the_twin(approx, shake):
     cs, x, w = random_graph(1)
     dt = 1 / 60
     ours = np.ascontiguousarray(x.T)
     theirs = x.copy()
+    start = x + np.random.default_rng(9).normal(scale=0.05, size=x.shape)
+    previous = np.ascontiguousarray(start.T) if shake else None
     lam_twin = cs.multipliers.copy()
     for _ in range(5):
-        cs.sweep(ours, w, dt, sqrt_approximation=approx)
+        cs.sweep(ours, w, dt, sqrt_approximation=approx, previous=previous)
         saved, cs.multipliers = cs.multipliers, lam_twin
-        naive.sweep(theirs, w, cs, dt, approx)
+        naive.sweep(theirs, w, cs, dt, approx, start if shake else None)
         lam_twin, cs.multipliers = cs.multipliers, saved
     # fastmath reassociation only: float64 round-off over 5 sweeps of O(1) coordinates.
     assert_allclose(ours.T, theirs, rtol=0, atol=1e-10)
@@ -80,8 +82,12 @@ def chain(n, stiffness=1.0, compliance=0.0, approx=False):
     w = np.ones(n)
     w[0] = 0
     b = mc.ConstraintBuilder()
-    b.add_sticks(np.stack([np.arange(n - 1), np.arange(1, n)], 1), 1.0, stiffness=stiffness,
-                 compliance=compliance)  # fmt: skip
+    b.add_sticks(
+        np.stack([np.arange(n - 1), np.arange(1, n)], 1),
+        1.0,
+        stiffness=stiffness,
+        compliance=compliance,
+    )
     return b.build(n), x, w
 
 
@@ -124,8 +130,7 @@ def test_xpbd_compliance_gives_the_same_spring_for_any_iterations_and_step():
     # so the stretch is m g α whatever the iteration count and step.
     alpha = 1e-3
     for iterations, dt in [(1, 1 / 60), (20, 1 / 60), (4, 1 / 240)]:
-        assert_allclose(hanging_stretch(iterations, dt, compliance=alpha), 9.81 * alpha,
-                        rtol=1e-3)  # fmt: skip
+        assert_allclose(hanging_stretch(iterations, dt, compliance=alpha), 9.81 * alpha, rtol=1e-3)
 
 
 def test_pbd_stiffness_depends_on_the_iteration_count():

@@ -112,8 +112,9 @@ class ConstraintBuilder:
         """Ropes: ``|x_j - x_i| <= length`` [m]; slack (no force) when shorter."""
         return self.add_distance(pairs, 0.0, length, stiffness=stiffness, compliance=compliance)
 
-    def add_angle_limits(self, triples, min_angle, max_angle=np.pi, *, stiffness=1.0,
-                         compliance=0.0):  # fmt: skip
+    def add_angle_limits(
+        self, triples, min_angle, max_angle=np.pi, *, stiffness=1.0, compliance=0.0
+    ):
         """Keep the angle at ``pivot`` between its arms to ``i`` and ``j`` in range [rad].
 
         ``triples`` holds ``(pivot, i, j)`` rows; the angle is in ``[0, π]``. Enforced
@@ -200,8 +201,15 @@ class ConstraintSet:
         """Zero the XPBD multipliers λ (at the start of every time step)."""
         self.multipliers[:] = 0.0
 
-    def sweep(self, position: np.ndarray, inv_mass: np.ndarray, dt: float, *,
-              sqrt_approximation: bool = False) -> None:  # fmt: skip
+    def sweep(
+        self,
+        position: np.ndarray,
+        inv_mass: np.ndarray,
+        dt: float,
+        *,
+        sqrt_approximation: bool = False,
+        previous: np.ndarray | None = None,
+    ) -> None:
         """One relaxation sweep over every constraint, in place.
 
         Parameters
@@ -214,28 +222,59 @@ class ConstraintSet:
             Time step [s] (used by the XPBD compliance term).
         sqrt_approximation : bool
             Jakobsen's square-root-free projection for rigid sticks.
+        previous : (3, n) float64 array, optional
+            Positions at the start of the step [m]: given, distance constraints project
+            along their direction there (SHAKE; see :mod:`.kernels`).
         """
+        shake = previous is not None
+        q = previous if shake else position
         relax_sweep(
-            position[0], position[1], position[2], inv_mass, self.kind, self.ends, self.lo,
-            self.hi, self.compliance, self.stiffness, self.multipliers, self.color_start,
-            float(dt), bool(sqrt_approximation),
-        )  # fmt: skip
+            position[0],
+            position[1],
+            position[2],
+            q[0],
+            q[1],
+            q[2],
+            inv_mass,
+            self.kind,
+            self.ends,
+            self.lo,
+            self.hi,
+            self.compliance,
+            self.stiffness,
+            self.multipliers,
+            self.color_start,
+            float(dt),
+            bool(sqrt_approximation),
+            shake,
+        )
 
-    def relax(self, position, inv_mass, dt, *, iterations=10, pins=None,
-              sqrt_approximation=False) -> None:  # fmt: skip
+    def relax(
+        self,
+        position,
+        inv_mass,
+        dt,
+        *,
+        iterations=10,
+        pins=None,
+        sqrt_approximation=False,
+        previous=None,
+    ) -> None:
         """``iterations`` sweeps (pins re-applied after each), starting with λ = 0."""
         check_state(position, inv_mass, self.particle_count)
         iterations = check.integer("iterations", iterations, low=1)
         self.reset_multipliers()
-        previous = serial_threads(self.particle_count)
+        threads = serial_threads(self.particle_count)
         try:
             for _ in range(iterations):
-                self.sweep(position, inv_mass, dt, sqrt_approximation=sqrt_approximation)
+                self.sweep(
+                    position, inv_mass, dt, sqrt_approximation=sqrt_approximation, previous=previous
+                )
                 if pins is not None:
                     pins.apply(position)
         finally:
-            if previous:
-                numba.set_num_threads(previous)
+            if threads:
+                numba.set_num_threads(threads)
 
     def lengths(self, position: np.ndarray) -> np.ndarray:
         """Current ``|x_j - x_i|`` of every constraint, in colour order [m]."""
@@ -245,13 +284,21 @@ class ConstraintSet:
 
 def check_state(position, inv_mass, n) -> None:
     """Position must be a (3, n) float64 array and inv_mass an (n,) float64 one."""
-    if not isinstance(position, np.ndarray) or position.dtype != np.float64 or position.shape != (
-        3, n,
-    ):  # fmt: skip
+    if (
+        not isinstance(position, np.ndarray)
+        or position.dtype != np.float64
+        or position.shape
+        != (
+            3,
+            n,
+        )
+    ):
         raise ValueError(f"position must be a (3, {n}) float64 array")
-    if not isinstance(inv_mass, np.ndarray) or inv_mass.dtype != np.float64 or inv_mass.shape != (
-        n,
-    ):  # fmt: skip
+    if (
+        not isinstance(inv_mass, np.ndarray)
+        or inv_mass.dtype != np.float64
+        or inv_mass.shape != (n,)
+    ):
         raise ValueError(f"inv_mass must be an ({n},) float64 array")
 
 

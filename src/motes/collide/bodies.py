@@ -1,0 +1,478 @@
+"""Body against body: particles projected out of other bodies' convex shapes.
+
+Each solid body (a tetrahedron, a box, a convex hull of particles) carries its faces as
+planes ``n · r <= d`` in its rest frame. Once per substep the body's transform (centre
+of mass ``c``, rotation ``R``) and world inverse inertia are read from its particles;
+then, in every relaxation iteration, each particle ``a`` of another body whose local
+position ``R^T (x_a - c)`` lies within its radius ``r`` of inside every plane is pushed
+out by the depth ``p`` (Jakobsen 2001, §4, "collision between rigid bodies").
+
+The normal is one per pair of bodies: the face, of either body, along which the pair
+overlaps least (a separating-axis test over both bodies' faces); the particles of the
+other body are pushed out through it. The face of least
+penetration of each particle on its own fails for a box resting on an equal one: its
+corners lie on the side faces too, and once the stack's weight presses them deeper than
+their radius they are pushed sideways. Bodies need a radius > 0 to stack: a corner
+exactly on a rim is otherwise outside.
+
+The correction moves both bodies rigidly, as in Müller et al. 2020 ("Detailed rigid
+body simulation with extended position based dynamics", eq. 2–3 and 6–9): at a contact
+point ``ρ`` from a body's centre its generalised inverse mass is
+``w = 1/M + (ρ × n)^T I^{-1} (ρ × n)``; the multiplier ``Δλ = p / (w_A + w_B)`` moves
+every particle ``k`` of a body by ``±Δλ (n / M + (I^{-1}(ρ × n)) × (x_k - c))`` (to
+first order; the sticks absorb the second-order stretch). Moving only the intruding
+particle, or spreading the correction over the other body's particles by affine weights
+(Jakobsen's stick example generalised), deforms the bodies, which their sticks then
+undo; in a stack of equal boxes that exchange grew a tilting mode that doubled every
+step. The contacts of a pair are solved from one state and averaged (each applied with
+``Δλ / count``, Jacobi style), for the same reason. Friction reduces the tangential
+travel of the bodies' centres against each other by at most ``μ p_max``, moving them
+as a whole. Pairs of bodies
+in one ``group`` (the parts of a ragdoll) do not collide. The kernel is serial: bodies
+are few, and the order of the pairs is fixed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._jit import device, serial_kernel
+
+
+@device
+def _move_body(
+    px,
+    py,
+    pz,
+    body_start,
+    body_particles,
+    b,
+    cx,
+    cy,
+    cz,
+    inv_mass_b,
+    iinv,
+    rx,
+    ry,
+    rz,
+    nx,
+    ny,
+    nz,
+    lam,
+):
+    """Move body b rigidly by the impulse -lam n applied at c + rho (first order)."""
+    tx = ry * nz - rz * ny
+    ty = rz * nx - rx * nz
+    tz = rx * ny - ry * nx
+    wx = -lam * (iinv[0, 0] * tx + iinv[0, 1] * ty + iinv[0, 2] * tz)
+    wy = -lam * (iinv[1, 0] * tx + iinv[1, 1] * ty + iinv[1, 2] * tz)
+    wz = -lam * (iinv[2, 0] * tx + iinv[2, 1] * ty + iinv[2, 2] * tz)
+    vx, vy, vz = -lam * inv_mass_b * nx, -lam * inv_mass_b * ny, -lam * inv_mass_b * nz
+    for e in range(body_start[b], body_start[b + 1]):
+        k = body_particles[e]
+        dx, dy, dz = px[k] - cx, py[k] - cy, pz[k] - cz
+        px[k] += vx + wy * dz - wz * dy
+        py[k] += vy + wz * dx - wx * dz
+        pz[k] += vz + wx * dy - wy * dx
+
+
+@device
+def _push(
+    px,
+    py,
+    pz,
+    body_start,
+    body_particles,
+    centre,
+    body_inv_mass,
+    ia,
+    ib,
+    a,
+    b,
+    ax,
+    ay,
+    az,
+    bx,
+    by,
+    bz,
+    sx,
+    sy,
+    sz,
+    rx,
+    ry,
+    rz,
+    nx,
+    ny,
+    nz,
+    lam,
+):
+    """Impulse +lam n on body a at centre + s, -lam n on body b at centre + r."""
+    _move_body(
+        px,
+        py,
+        pz,
+        body_start,
+        body_particles,
+        a,
+        ax,
+        ay,
+        az,
+        body_inv_mass[a],
+        ia,
+        sx,
+        sy,
+        sz,
+        -nx,
+        -ny,
+        -nz,
+        lam,
+    )
+    _move_body(
+        px,
+        py,
+        pz,
+        body_start,
+        body_particles,
+        b,
+        bx,
+        by,
+        bz,
+        body_inv_mass[b],
+        ib,
+        rx,
+        ry,
+        rz,
+        nx,
+        ny,
+        nz,
+        lam,
+    )
+    centre[a, 0] += lam * body_inv_mass[a] * nx
+    centre[a, 1] += lam * body_inv_mass[a] * ny
+    centre[a, 2] += lam * body_inv_mass[a] * nz
+    centre[b, 0] -= lam * body_inv_mass[b] * nx
+    centre[b, 1] -= lam * body_inv_mass[b] * ny
+    centre[b, 2] -= lam * body_inv_mass[b] * nz
+
+
+@device
+def _body_weight(inv_mass_b, iinv, rx, ry, rz, nx, ny, nz):
+    tx = ry * nz - rz * ny
+    ty = rz * nx - rx * nz
+    tz = rx * ny - ry * nx
+    return inv_mass_b + (
+        tx * (iinv[0, 0] * tx + iinv[0, 1] * ty + iinv[0, 2] * tz)
+        + ty * (iinv[1, 0] * tx + iinv[1, 1] * ty + iinv[1, 2] * tz)
+        + tz * (iinv[2, 0] * tx + iinv[2, 1] * ty + iinv[2, 2] * tz)
+    )
+
+
+@device
+def _overlap(
+    px, py, pz, radius, body_start, body_particles, plane_start, planes, centre, rotation, a, b
+):
+    """Least overlap of body a's particles with b along b's faces, and that face."""
+    rot = rotation[b]
+    face = -1
+    least = np.inf
+    for f in range(plane_start[b], plane_start[b + 1]):
+        nx = rot[0, 0] * planes[f, 0] + rot[0, 1] * planes[f, 1] + rot[0, 2] * planes[f, 2]
+        ny = rot[1, 0] * planes[f, 0] + rot[1, 1] * planes[f, 1] + rot[1, 2] * planes[f, 2]
+        nz = rot[2, 0] * planes[f, 0] + rot[2, 1] * planes[f, 1] + rot[2, 2] * planes[f, 2]
+        deepest = -np.inf
+        for ea in range(body_start[a], body_start[a + 1]):
+            i = body_particles[ea]
+            s = (px[i] - centre[b, 0]) * nx + (py[i] - centre[b, 1]) * ny
+            s += (pz[i] - centre[b, 2]) * nz - planes[f, 3]
+            deepest = max(deepest, radius[i] - s)
+        if deepest < least:
+            least = deepest
+            face = f
+    return least, face
+
+
+@device
+def update_rotations(px, py, pz, body_start, body_particles, mass_fraction, rest, rotation, sweeps):
+    """Refine each body's rotation toward the rotation part of ``A = Σ f (x - c) r^T``.
+
+    Müller, Bender, Chentanez & Macklin 2016, "A robust method to extract the rotational
+    part of deformations" (eq. 7): ``ω = Σ_i r_i × a_i / (|Σ_i r_i · a_i| + ε)`` over
+    the columns of R and A, then R <- rot(ω) R, warm-started from the last rotation.
+    Unlike a polar decomposition it needs no inverse, so flat bodies (a triangle) work.
+    """
+    for b in range(body_start.shape[0] - 1):
+        cx = cy = cz = 0.0
+        for e in range(body_start[b], body_start[b + 1]):
+            k = body_particles[e]
+            cx += mass_fraction[e] * px[k]
+            cy += mass_fraction[e] * py[k]
+            cz += mass_fraction[e] * pz[k]
+        a = np.zeros((3, 3))
+        for e in range(body_start[b], body_start[b + 1]):
+            k = body_particles[e]
+            d = (px[k] - cx, py[k] - cy, pz[k] - cz)
+            for i in range(3):
+                for j in range(3):
+                    a[i, j] += mass_fraction[e] * d[i] * rest[e, j]
+        r = rotation[b]
+        for _ in range(sweeps):
+            wx = wy = wz = 0.0
+            dot = 0.0
+            for j in range(3):
+                wx += r[1, j] * a[2, j] - r[2, j] * a[1, j]
+                wy += r[2, j] * a[0, j] - r[0, j] * a[2, j]
+                wz += r[0, j] * a[1, j] - r[1, j] * a[0, j]
+                dot += r[0, j] * a[0, j] + r[1, j] * a[1, j] + r[2, j] * a[2, j]
+            scale = 1.0 / (abs(dot) + 1e-12)
+            wx, wy, wz = wx * scale, wy * scale, wz * scale
+            angle = np.sqrt(wx * wx + wy * wy + wz * wz)
+            if angle < 1e-12:
+                break
+            ux, uy, uz = wx / angle, wy / angle, wz / angle
+            c, s = np.cos(angle), np.sin(angle)
+            t = 1.0 - c
+            m = np.empty((3, 3))
+            m[0, 0], m[0, 1], m[0, 2] = c + ux * ux * t, ux * uy * t - uz * s, ux * uz * t + uy * s
+            m[1, 0], m[1, 1], m[1, 2] = uy * ux * t + uz * s, c + uy * uy * t, uy * uz * t - ux * s
+            m[2, 0], m[2, 1], m[2, 2] = uz * ux * t - uy * s, uz * uy * t + ux * s, c + uz * uz * t
+            r[:, :] = m @ r
+
+
+@serial_kernel
+def body_contacts(
+    px,
+    py,
+    pz,
+    qx,
+    qy,
+    qz,
+    inv_mass,
+    radius,
+    body_start,
+    body_particles,
+    mass_fraction,
+    rest,
+    body_inv_mass,
+    rest_inv_inertia,
+    plane_start,
+    planes,
+    group,
+    rotation,
+    friction,
+    hits,
+):
+    """Project particles out of other bodies' shapes (see the module docstring).
+
+    ``rest`` (e, 3) are the body entries' rest positions about the centre of mass [m];
+    ``body_inv_mass`` (b,) [1/kg] and ``rest_inv_inertia`` (b, 3, 3) [1/(kg m²)] (rest
+    frame) are 0 for immovable bodies; ``rotation`` (b, 3, 3), rest to world, is
+    refined here first (and kept: it warm-starts the next call).
+    """
+    nb = body_start.shape[0] - 1
+    update_rotations(px, py, pz, body_start, body_particles, mass_fraction, rest, rotation, 4)
+    inv_inertia = np.empty((nb, 3, 3))
+    for b in range(nb):
+        inv_inertia[b] = rotation[b] @ rest_inv_inertia[b] @ rotation[b].T
+    largest = 0
+    for b in range(nb):
+        largest = max(largest, body_start[b + 1] - body_start[b])
+    found = np.empty((largest, 7))
+    box = np.empty((nb, 6))
+    centre = np.zeros((nb, 3))
+    before = np.zeros((nb, 3))
+    for b in range(nb):
+        box[b, :3] = np.inf
+        box[b, 3:] = -np.inf
+        for e in range(body_start[b], body_start[b + 1]):
+            k = body_particles[e]
+            r = radius[k]
+            box[b, 0] = min(box[b, 0], px[k] - r)
+            box[b, 1] = min(box[b, 1], py[k] - r)
+            box[b, 2] = min(box[b, 2], pz[k] - r)
+            box[b, 3] = max(box[b, 3], px[k] + r)
+            box[b, 4] = max(box[b, 4], py[k] + r)
+            box[b, 5] = max(box[b, 5], pz[k] + r)
+            centre[b, 0] += mass_fraction[e] * px[k]
+            centre[b, 1] += mass_fraction[e] * py[k]
+            centre[b, 2] += mass_fraction[e] * pz[k]
+            before[b, 0] += mass_fraction[e] * qx[k]
+            before[b, 1] += mass_fraction[e] * qy[k]
+            before[b, 2] += mass_fraction[e] * qz[k]
+    for first in range(nb):
+        for second in range(first + 1, nb):
+            if group[first] == group[second]:
+                continue
+            if (
+                box[first, 0] > box[second, 3]
+                or box[second, 0] > box[first, 3]
+                or box[first, 1] > box[second, 4]
+                or box[second, 1] > box[first, 4]
+                or box[first, 2] > box[second, 5]
+                or box[second, 2] > box[first, 5]
+            ):
+                continue
+            # Separating-axis test over both bodies' faces: the axis of least overlap
+            # gives the normal and which body's particles are pushed out of which.
+            ab, face_ab = _overlap(
+                px,
+                py,
+                pz,
+                radius,
+                body_start,
+                body_particles,
+                plane_start,
+                planes,
+                centre,
+                rotation,
+                first,
+                second,
+            )
+            ba, face_ba = _overlap(
+                px,
+                py,
+                pz,
+                radius,
+                body_start,
+                body_particles,
+                plane_start,
+                planes,
+                centre,
+                rotation,
+                second,
+                first,
+            )
+            if min(ab, ba) <= 0.0:
+                continue
+            if ab <= ba:
+                a, b, face = first, second, face_ab
+            else:
+                a, b, face = second, first, face_ba
+            rot = rotation[b]
+            iinv = inv_inertia[b]
+            fx, fy, fz = planes[face, 0], planes[face, 1], planes[face, 2]
+            nx = rot[0, 0] * fx + rot[0, 1] * fy + rot[0, 2] * fz
+            ny = rot[1, 0] * fx + rot[1, 1] * fy + rot[1, 2] * fz
+            nz = rot[2, 0] * fx + rot[2, 1] * fy + rot[2, 2] * fz
+            ia = inv_inertia[a]
+            # Every contact of the pair is solved from the same state and applied with
+            # 1/count of its multiplier (Jacobi averaging): solved one after another,
+            # the rotation each one causes disturbs the next, and a resting stack tilts.
+            count = 0
+            for ea in range(body_start[a], body_start[a + 1]):
+                i = body_particles[ea]
+                r = radius[i]
+                dx = px[i] - centre[b, 0]
+                dy = py[i] - centre[b, 1]
+                dz = pz[i] - centre[b, 2]
+                lx = rot[0, 0] * dx + rot[1, 0] * dy + rot[2, 0] * dz
+                ly = rot[0, 1] * dx + rot[1, 1] * dy + rot[2, 1] * dz
+                lz = rot[0, 2] * dx + rot[1, 2] * dy + rot[2, 2] * dz
+                inside = True
+                for f in range(plane_start[b], plane_start[b + 1]):
+                    s = planes[f, 0] * lx + planes[f, 1] * ly + planes[f, 2] * lz - planes[f, 3]
+                    if s >= r:
+                        inside = False
+                        break
+                if not inside:
+                    continue
+                gap = fx * lx + fy * ly + fz * lz - planes[face, 3]
+                # Contact points: on b's face, and the particle itself on a.
+                found[count, 0] = r - gap
+                found[count, 1] = px[i] - centre[a, 0]
+                found[count, 2] = py[i] - centre[a, 1]
+                found[count, 3] = pz[i] - centre[a, 2]
+                found[count, 4] = dx - gap * nx
+                found[count, 5] = dy - gap * ny
+                found[count, 6] = dz - gap * nz
+                hits[i] += 1
+                count += 1
+            if count == 0:
+                continue
+            ax, ay, az = centre[a, 0], centre[a, 1], centre[a, 2]
+            bx, by, bz = centre[b, 0], centre[b, 1], centre[b, 2]
+            deepest = 0.0
+            for j in range(count):
+                depth, sx, sy, sz, rx, ry, rz = found[j, :7]
+                deepest = max(deepest, depth)
+                total = _body_weight(body_inv_mass[a], ia, sx, sy, sz, nx, ny, nz)
+                total += _body_weight(body_inv_mass[b], iinv, rx, ry, rz, nx, ny, nz)
+                if total <= 0.0:
+                    continue
+                lam = depth / total / count
+                _push(
+                    px,
+                    py,
+                    pz,
+                    body_start,
+                    body_particles,
+                    centre,
+                    body_inv_mass,
+                    ia,
+                    iinv,
+                    a,
+                    b,
+                    ax,
+                    ay,
+                    az,
+                    bx,
+                    by,
+                    bz,
+                    sx,
+                    sy,
+                    sz,
+                    rx,
+                    ry,
+                    rz,
+                    nx,
+                    ny,
+                    nz,
+                    lam,
+                )
+            if friction <= 0.0:
+                continue
+            # Tangential travel of a's centre relative to b's centre over the step,
+            # reduced by at most mu times the deepest contact's depth.
+            ux = (centre[a, 0] - before[a, 0]) - (centre[b, 0] - before[b, 0])
+            uy = (centre[a, 1] - before[a, 1]) - (centre[b, 1] - before[b, 1])
+            uz = (centre[a, 2] - before[a, 2]) - (centre[b, 2] - before[b, 2])
+            un = ux * nx + uy * ny + uz * nz
+            tx, ty, tz = ux - un * nx, uy - un * ny, uz - un * nz
+            t = np.sqrt(tx * tx + ty * ty + tz * tz)
+            if t <= 0.0:
+                continue
+            tx, ty, tz = -tx / t, -ty / t, -tz / t
+            total = body_inv_mass[a] + body_inv_mass[b]
+            if total <= 0.0:
+                continue
+            lam = min(t, friction * deepest) / total
+            ax, ay, az = centre[a, 0], centre[a, 1], centre[a, 2]
+            bx, by, bz = centre[b, 0], centre[b, 1], centre[b, 2]
+            _push(
+                px,
+                py,
+                pz,
+                body_start,
+                body_particles,
+                centre,
+                body_inv_mass,
+                ia,
+                iinv,
+                a,
+                b,
+                ax,
+                ay,
+                az,
+                bx,
+                by,
+                bz,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                tx,
+                ty,
+                tz,
+                lam,
+            )
