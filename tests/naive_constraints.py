@@ -87,3 +87,76 @@ def verlet(x, q, w, g, keep, h):
     """Position Verlet on (n, 3) arrays; returns the new (x, q)."""
     moving = (w > 0)[:, None]
     return np.where(moving, x + keep * (x - q) + h * h * np.asarray(g), x), x.copy()
+
+
+# --- collisions ------------------------------------------------------------------------
+
+
+def closest_on_segment(p, a, b):
+    ab = b - a
+    t = np.clip((p - a) @ ab / max(ab @ ab, 1e-300), 0.0, 1.0)
+    return a + t * ab
+
+
+def closest_on_triangle(p, a, b, c):
+    """Projection on the plane if inside the triangle, else the closest edge point."""
+    n = np.cross(b - a, c - a)
+    n = n / np.linalg.norm(n)
+    q = p - (p - a) @ n * n
+    inside = all(np.cross(v1 - v0, q - v0) @ n >= 0 for v0, v1 in ((a, b), (b, c), (c, a)))
+    if inside:
+        return q
+    edges = [closest_on_segment(p, *e) for e in ((a, b), (b, c), (c, a))]
+    return min(edges, key=lambda e: np.linalg.norm(p - e))
+
+
+def signed_distance(collider, p, q):
+    """Signed distance and outward normal of a motes collider at point p (prev. q)."""
+    from motes.collide import Box, Plane, Sphere
+    from motes.collide.capsule import Capsule
+
+    if isinstance(collider, Plane):
+        return p @ collider.normal - collider.offset, collider.normal
+    if isinstance(collider, (Sphere, Capsule)):
+        if isinstance(collider, Sphere):
+            centre = collider.center
+        else:
+            centre = closest_on_segment(p, collider.a, collider.b)
+        d = p - centre
+        return np.linalg.norm(d) - collider.radius, d / np.linalg.norm(d)
+    if isinstance(collider, Box):
+        local = (p - collider.center) @ collider.rotation
+        q_ = np.abs(local) - collider.half_extent
+        outside = np.maximum(q_, 0) * np.sign(local)
+        if np.any(q_ > 0):
+            dist = np.linalg.norm(outside)
+            return dist, collider.rotation @ (outside / dist)
+        axis = int(np.argmax(q_))
+        n = np.zeros(3)
+        n[axis] = 1.0 if local[axis] >= 0 else -1.0
+        return q_[axis], collider.rotation @ n
+    # Triangle mesh: brute force over every triangle.
+    tris = collider.triangles.reshape(-1, 3, 3)
+    best = min((closest_on_triangle(p, *t) for t in tris), key=lambda c: np.linalg.norm(p - c))
+    d = p - best
+    return np.linalg.norm(d) - collider.thickness, d / np.linalg.norm(d)
+
+
+def project_contacts(x, q, radius, w, colliders):
+    """A-posteriori projection with depth friction, particle by particle; x, q (n, 3)."""
+    x = x.copy()
+    for p in range(len(x)):
+        if w[p] <= 0:
+            continue
+        for col in colliders:
+            s, n = signed_distance(col, x[p], q[p])
+            depth = radius[p] - s
+            if depth <= 0:
+                continue
+            x[p] = x[p] + depth * n
+            d = x[p] - q[p]
+            t = d - (d @ n) * n
+            tl = np.linalg.norm(t)
+            if tl > 0:
+                x[p] -= min(1.0, col.friction * depth / tl) * t
+    return x

@@ -9,8 +9,9 @@
 True
 """
 
-from . import colliders, io, render, scene, shapes
-from .collide import Friction, Response
+from . import colliders, constrain, io, render, rigid, scene, shapes
+from .collide import Capsule, Friction, Response, TriangleMeshCollider
+from .constrain import ConstraintBuilder
 from .emit import (
     Burst,
     Cone,
@@ -63,6 +64,8 @@ from .render.background import Background
 from .render.camera import Camera, Projection
 from .render.renderer import Renderer
 from .render.sprites import SpriteStyle
+from .rigid import BodyShape, add_ragdoll
+from .rigid import World as RigidWorld
 from .scene import Scene, SceneError, load_scene
 from .system import ParticleSystem
 
@@ -72,12 +75,15 @@ __all__ = [
     "AlphaBelow",
     "Attribute",
     "Background",
+    "BodyShape",
     "Burst",
     "CallbackForce",
     "Camera",
+    "Capsule",
     "ColorOverLife",
     "Cone",
     "Constant",
+    "ConstraintBuilder",
     "CurlNoise",
     "Curve",
     "Direction",
@@ -110,6 +116,7 @@ __all__ = [
     "Rate",
     "Renderer",
     "Response",
+    "RigidWorld",
     "Scene",
     "SceneError",
     "ScreenScaled",
@@ -119,13 +126,17 @@ __all__ = [
     "SpeedOverLife",
     "Springs",
     "SpriteStyle",
+    "TriangleMeshCollider",
     "Uniform",
     "Vortex",
     "Wind",
+    "add_ragdoll",
     "colliders",
+    "constrain",
     "io",
     "load_scene",
     "render",
+    "rigid",
     "scene",
     "shapes",
 ]
