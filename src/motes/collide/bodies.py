@@ -7,9 +7,11 @@ then, in every relaxation iteration, each particle ``a`` of another body whose l
 position ``R^T (x_a - c)`` lies within its radius ``r`` of inside every plane is pushed
 out by the depth ``p`` (Jakobsen 2001, §4, "collision between rigid bodies").
 
-The normal is one per pair of bodies: the face, of either body, along which the pair
-overlaps least (a separating-axis test over both bodies' faces); the particles of the
-other body are pushed out through it. The face of least
+The normal ``n`` is one per pair of bodies: the face, of either body, along which the
+pair overlaps least (a separating-axis test over both bodies' faces). The particles of
+the other body inside it are pushed out along ``n``, and the face's body's particles
+inside the other along ``-n`` (a box lying across a narrower plank has no corner inside
+the plank, but the plank has corners inside the box). The face of least
 penetration of each particle on its own fails for a box resting on an equal one: its
 corners lie on the side faces too, and once the stack's weight presses them deeper than
 their radius they are pushed sideways. Bodies need a radius > 0 to stack: a corner
@@ -276,7 +278,7 @@ def body_contacts(
     largest = 0
     for b in range(nb):
         largest = max(largest, body_start[b + 1] - body_start[b])
-    found = np.empty((largest, 7))
+    found = np.empty((2 * largest, 7))
     box = np.empty((nb, 6))
     centre = np.zeros((nb, 3))
     before = np.zeros((nb, 3))
@@ -386,12 +388,48 @@ def body_contacts(
                 found[count, 6] = dz - gap * nz
                 hits[i] += 1
                 count += 1
+            # And b's particles inside a, pushed out of a along -n (an edge of b across a
+            # face of a has no particle of a inside b: without this it passes through).
+            rot_a = rotation[a]
+            ux = -(rot_a[0, 0] * nx + rot_a[1, 0] * ny + rot_a[2, 0] * nz)
+            uy = -(rot_a[0, 1] * nx + rot_a[1, 1] * ny + rot_a[2, 1] * nz)
+            uz = -(rot_a[0, 2] * nx + rot_a[1, 2] * ny + rot_a[2, 2] * nz)
+            for eb in range(body_start[b], body_start[b + 1]):
+                i = body_particles[eb]
+                r = radius[i]
+                dx = px[i] - centre[a, 0]
+                dy = py[i] - centre[a, 1]
+                dz = pz[i] - centre[a, 2]
+                lx = rot_a[0, 0] * dx + rot_a[1, 0] * dy + rot_a[2, 0] * dz
+                ly = rot_a[0, 1] * dx + rot_a[1, 1] * dy + rot_a[2, 1] * dz
+                lz = rot_a[0, 2] * dx + rot_a[1, 2] * dy + rot_a[2, 2] * dz
+                exit_t = np.inf
+                for f in range(plane_start[a], plane_start[a + 1]):
+                    s = planes[f, 0] * lx + planes[f, 1] * ly + planes[f, 2] * lz - planes[f, 3]
+                    if s >= r:
+                        exit_t = -1.0
+                        break
+                    along = planes[f, 0] * ux + planes[f, 1] * uy + planes[f, 2] * uz
+                    if along > 1e-9:
+                        exit_t = min(exit_t, (r - s) / along)
+                if exit_t <= 0.0 or exit_t == np.inf or plane_start[a] == plane_start[a + 1]:
+                    continue
+                found[count, 0] = exit_t
+                found[count, 1] = dx - exit_t * nx
+                found[count, 2] = dy - exit_t * ny
+                found[count, 3] = dz - exit_t * nz
+                found[count, 4] = px[i] - centre[b, 0]
+                found[count, 5] = py[i] - centre[b, 1]
+                found[count, 6] = pz[i] - centre[b, 2]
+                hits[i] += 1
+                count += 1
             if count == 0:
                 continue
-            ax, ay, az = centre[a, 0], centre[a, 1], centre[a, 2]
-            bx, by, bz = centre[b, 0], centre[b, 1], centre[b, 2]
             deepest = 0.0
             for j in range(count):
+                # Rotations turn about the current centres (momentum is then conserved).
+                ax, ay, az = centre[a, 0], centre[a, 1], centre[a, 2]
+                bx, by, bz = centre[b, 0], centre[b, 1], centre[b, 2]
                 depth, sx, sy, sz, rx, ry, rz = found[j, :7]
                 deepest = max(deepest, depth)
                 total = _body_weight(body_inv_mass[a], ia, sx, sy, sz, nx, ny, nz)

@@ -264,6 +264,15 @@ class World:
         self._previous[:, idx] = targets[: len(idx)].T
         self._built = None
 
+    def unpin(self, indices) -> None:
+        """Release pinned particles (they keep their position and start at rest)."""
+        drop = set(np.atleast_1d(np.asarray(indices)).tolist())
+        kept = [(i, t) for idx, tg in zip(self._pinned, self._pin_targets, strict=True)
+                for i, t in zip(idx.tolist(), tg, strict=True) if i not in drop]  # fmt: skip
+        self._pinned = [np.array([i for i, _ in kept], dtype=np.int64)] if kept else []
+        self._pin_targets = [np.array([t for _, t in kept])] if kept else []
+        self._built = None
+
     def add_collider(self, collider, detection: Detection | str = Detection.POSTERIORI) -> None:
         """A plane, sphere, box, capsule or triangle mesh; ``detection`` is
         ``"posteriori"`` (after the move) or ``"priori"`` (swept; planes, boxes, meshes).
