@@ -30,3 +30,10 @@ def test_rendering_guide_examples_run(capsys):
     assert namespace["image"].std() > 5  # ground, crate, ball and blobs: not a flat image
     assert (namespace["out"] / "clip.gif").exists()
     assert "True" in capsys.readouterr().out
+
+
+def test_rigid_guide_examples_run(capsys):
+    namespace = run_blocks(DOCS / "rigid.md")
+    assert 0.2 < namespace["centre"][0][1] < 2.1  # the resting crate, then the twisted box
+    out = capsys.readouterr().out
+    assert "True" in out and "15 31 True" in out
