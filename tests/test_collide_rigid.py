@@ -27,7 +27,7 @@ def colliders():
         Sphere((0.5, 0.2, 0.0), 0.6, friction=0.5),
         Box((-0.6, 0.0, 0.3), (0.8, 0.5, 0.7), rotation=r, friction=0.2),
         Capsule((0.0, 0.0, -0.8), (0.6, 0.4, -0.5), 0.3, friction=0.4),
-        TriangleMeshCollider(sphere_mesh(0.5), thickness=0.02, friction=0.1),
+        TriangleMeshCollider(sphere_mesh(0.5, 1), thickness=0.02, friction=0.1),
     ]
 
 
@@ -45,16 +45,17 @@ def test_projection_matches_the_twin_for_each_shape(which):
     rng = np.random.default_rng(which)
     cols = [colliders()[which]]
     centre = [(0, -0.5, 0), (0.5, 0.2, 0), (-0.6, 0, 0.3), (0.3, 0.2, -0.65), (0, 0, 0)][which]
-    x = np.asarray(centre) + rng.uniform(-0.7, 0.7, size=(400, 3))
+    n = 150 if which == 4 else 400  # the twin tests every triangle in Python
+    x = np.asarray(centre) + rng.uniform(-0.7, 0.7, size=(n, 3))
     if which == 4:  # a thin shell: sample around the sphere's surface
-        x *= 0.5 * rng.uniform(0.9, 1.1, (400, 1)) / np.linalg.norm(x, axis=1, keepdims=True)
+        x *= 0.5 * rng.uniform(0.9, 1.1, (n, 1)) / np.linalg.norm(x, axis=1, keepdims=True)
     q = x + rng.normal(scale=0.05, size=x.shape)
-    radius = rng.uniform(0, 0.05, 400)
-    w = np.ones(400)
+    radius = rng.uniform(0, 0.05, n)
+    w = np.ones(n)
     w[:10] = 0
     ours, hits = run_kernel(x, q, radius, w, cols)
     theirs = naive.project_contacts(x, q, radius, w, cols)
-    assert hits.sum() > 20  # the cloud really overlaps the shape
+    assert hits.sum() > 15  # the cloud really overlaps the shape
     # float64 round-off of a handful of operations on O(1) values.
     assert_allclose(ours, theirs, rtol=0, atol=1e-10)
 

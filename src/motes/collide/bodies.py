@@ -193,7 +193,15 @@ def _overlap(
     return least, face
 
 
-@device
+@serial_kernel
+def _matmul(a, b, out):
+    """out = a b for 3 × 3 matrices (out distinct from a and b)."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+
+
+@serial_kernel
 def update_rotations(px, py, pz, body_start, body_particles, mass_fraction, rest, rotation, sweeps):
     """Refine each body's rotation toward the rotation part of ``A = Σ f (x - c) r^T``.
 
@@ -237,7 +245,7 @@ def update_rotations(px, py, pz, body_start, body_particles, mass_fraction, rest
             m[0, 0], m[0, 1], m[0, 2] = c + ux * ux * t, ux * uy * t - uz * s, ux * uz * t + uy * s
             m[1, 0], m[1, 1], m[1, 2] = uy * ux * t + uz * s, c + uy * uy * t, uy * uz * t - ux * s
             m[2, 0], m[2, 1], m[2, 2] = uz * ux * t - uy * s, uz * uy * t + ux * s, c + uz * uz * t
-            r[:, :] = m @ r
+            _matmul(m, r.copy(), r)
 
 
 @serial_kernel
@@ -274,7 +282,10 @@ def body_contacts(
     update_rotations(px, py, pz, body_start, body_particles, mass_fraction, rest, rotation, 4)
     inv_inertia = np.empty((nb, 3, 3))
     for b in range(nb):
-        inv_inertia[b] = rotation[b] @ rest_inv_inertia[b] @ rotation[b].T
+        # R I⁻¹ Rᵀ by explicit loops: np.dot would need SciPy's BLAS at run time.
+        tmp = np.empty((3, 3))
+        _matmul(rotation[b], rest_inv_inertia[b], tmp)
+        _matmul(tmp, rotation[b].T, inv_inertia[b])
     largest = 0
     for b in range(nb):
         largest = max(largest, body_start[b + 1] - body_start[b])
@@ -430,7 +441,9 @@ def body_contacts(
                 # Rotations turn about the current centres (momentum is then conserved).
                 ax, ay, az = centre[a, 0], centre[a, 1], centre[a, 2]
                 bx, by, bz = centre[b, 0], centre[b, 1], centre[b, 2]
-                depth, sx, sy, sz, rx, ry, rz = found[j, :7]
+                depth = found[j, 0]
+                sx, sy, sz = found[j, 1], found[j, 2], found[j, 3]
+                rx, ry, rz = found[j, 4], found[j, 5], found[j, 6]
                 deepest = max(deepest, depth)
                 total = _body_weight(body_inv_mass[a], ia, sx, sy, sz, nx, ny, nz)
                 total += _body_weight(body_inv_mass[b], iinv, rx, ry, rz, nx, ny, nz)

@@ -1,4 +1,8 @@
-"""Signed distances from a point to packed collider shapes (inlined device functions).
+"""Signed distances from a point to packed collider shapes.
+
+The shape distances are inlined device functions; the mesh query, a loop over grid
+cells and triangles, is a compiled function of its own (called, not inlined: it costs
+far more than a call, and inlining it into every caller tripled their compile time).
 
 Rows are packed by :mod:`.contact` (:data:`~.contact.ROW`): column 0 the shape kind,
 columns 4.. its geometry. Each function returns the signed distance [m] (negative
@@ -9,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._jit import device
+from .._jit import device, serial_kernel
 
 PLANE, SPHERE, BOX, CAPSULE, MESH = 0, 1, 2, 3, 4
 G = 4  # first geometry column
@@ -119,7 +123,7 @@ def triangle_normal(tri, t):
     return nx / norm, ny / norm, nz / norm
 
 
-@device
+@serial_kernel
 def mesh_distance(row, tri, cell_start, cell_tris, px, py, pz, qx, qy, qz, reach):
     """Distance to the closest triangle of a mesh row within ``reach`` [m] of p.
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .._jit import block_bounds, block_count, device, parallel_kernel
+from .._jit import block_bounds, block_count, device, parallel_kernel, serial_kernel
 from .distance import BOX, MESH, PLANE, G, triangle_normal
 
 #: Gap left between a stopped particle and the surface [m] (keeps it on the free side
@@ -55,7 +55,7 @@ def _segment_triangle(ax, ay, az, dx, dy, dz, tri, t):
     return s
 
 
-@device
+@serial_kernel
 def _sweep_one(row, tri, cell_start, cell_tris, ax, ay, az, dx, dy, dz, r):
     """Earliest hit (fraction, normal, stand-off) of the segment a -> a + d, or inf."""
     kind = int(row[0])
