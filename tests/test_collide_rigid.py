@@ -146,3 +146,16 @@ def test_priori_is_refused_for_spheres_and_capsules():
         w.add_collider(Sphere(), detection="priori")
     with pytest.raises(TypeError, match=r"rigid\.World"):
         Capsule().structure  # noqa: B018
+
+
+def test_a_crate_lying_across_a_narrower_plank_rests_on_it():
+    # No corner of either body is inside the other: only the edge test finds the contact.
+    w = mr.World()
+    w.add_collider(Plane((0, 1, 0), 0.0))
+    w.add_body(mr.BodyShape.box((0, 0.05, 0), (0.27, 0.08, 1.0), 2.0))
+    w.add_body(mr.BodyShape.box((0, 0.5, 0), (0.35, 0.35, 0.35), 4.0))
+    for _ in range(60):
+        w.step(1 / 60)
+    centre, _ = w.transforms()
+    # Plank top (0.09 m incl. contact radii) plus half the crate: about 0.26 m.
+    assert_allclose(centre[1, 1], 0.09 + 0.175, atol=0.01)

@@ -11,7 +11,9 @@ The normal ``n`` is one per pair of bodies: the face, of either body, along whic
 pair overlaps least (a separating-axis test over both bodies' faces). The particles of
 the other body inside it are pushed out along ``n``, and the face's body's particles
 inside the other along ``-n`` (a box lying across a narrower plank has no corner inside
-the plank, but the plank has corners inside the box). The face of least
+the plank, but the plank has corners inside the box). Edges of either body that cross
+the other with both ends outside it (two boxes crossed edge to edge) add contacts at
+their deepest point (:func:`_edge_contacts`). The face of least
 penetration of each particle on its own fails for a box resting on an equal one: its
 corners lie on the side faces too, and once the stack's weight presses them deeper than
 their radius they are pushed sideways. Bodies need a radius > 0 to stack: a corner
@@ -248,6 +250,126 @@ def update_rotations(px, py, pz, body_start, body_particles, mass_fraction, rest
             _matmul(m, r.copy(), r)
 
 
+@device
+def _exit(planes, first, last, lx, ly, lz, ux, uy, uz, r):
+    """Distance along unit u (host frame) from a point to the outside of the host's
+    faces grown by r; -1 when the point is outside already."""
+    t = np.inf
+    for f in range(first, last):
+        s = planes[f, 0] * lx + planes[f, 1] * ly + planes[f, 2] * lz - planes[f, 3]
+        if s >= r:
+            return -1.0
+        along = planes[f, 0] * ux + planes[f, 1] * uy + planes[f, 2] * uz
+        if along > 1e-9:
+            t = min(t, (r - s) / along)
+    return t if t < np.inf else -1.0
+
+
+@serial_kernel
+def _edge_contacts(
+    px,
+    py,
+    pz,
+    radius,
+    edge_start,
+    edges,
+    plane_start,
+    planes,
+    centre,
+    rotation,
+    intruder,
+    host,
+    sign,
+    nx,
+    ny,
+    nz,
+    a,
+    b,
+    found,
+    count,
+):
+    """Contacts of the intruder's edges that cross the host with both ends outside it.
+
+    Vertex tests miss an edge lying across a face (a crate across a narrower plank).
+    Each edge is clipped to the host's faces grown by the particle radius (Cyrus & Beck
+    1978); the point of the clipped part deepest along ``sign * n`` (the intruder's way
+    out), found among four samples, becomes a contact. Rows are written to ``found`` in
+    the (depth, rho_a, rho_b) layout of the caller; returns the new count.
+    """
+    rot = rotation[host]
+    cx, cy, cz = centre[host, 0], centre[host, 1], centre[host, 2]
+    ux = sign * (rot[0, 0] * nx + rot[1, 0] * ny + rot[2, 0] * nz)
+    uy = sign * (rot[0, 1] * nx + rot[1, 1] * ny + rot[2, 1] * nz)
+    uz = sign * (rot[0, 2] * nx + rot[1, 2] * ny + rot[2, 2] * nz)
+    first, last = plane_start[host], plane_start[host + 1]
+    for e in range(edge_start[intruder], edge_start[intruder + 1]):
+        i, j = edges[e, 0], edges[e, 1]
+        r = 0.5 * (radius[i] + radius[j])
+        dx, dy, dz = px[i] - cx, py[i] - cy, pz[i] - cz
+        l0x = rot[0, 0] * dx + rot[1, 0] * dy + rot[2, 0] * dz
+        l0y = rot[0, 1] * dx + rot[1, 1] * dy + rot[2, 1] * dz
+        l0z = rot[0, 2] * dx + rot[1, 2] * dy + rot[2, 2] * dz
+        dx, dy, dz = px[j] - cx, py[j] - cy, pz[j] - cz
+        l1x = rot[0, 0] * dx + rot[1, 0] * dy + rot[2, 0] * dz
+        l1y = rot[0, 1] * dx + rot[1, 1] * dy + rot[2, 1] * dz
+        l1z = rot[0, 2] * dx + rot[1, 2] * dy + rot[2, 2] * dz
+        t_in = 0.0
+        t_out = 1.0
+        ends_outside = False
+        for f in range(first, last):
+            s0 = planes[f, 0] * l0x + planes[f, 1] * l0y + planes[f, 2] * l0z - planes[f, 3] - r
+            s1 = planes[f, 0] * l1x + planes[f, 1] * l1y + planes[f, 2] * l1z - planes[f, 3] - r
+            if s0 >= 0.0 and s1 >= 0.0:
+                t_in = 1.0  # wholly outside this face
+                break
+            if s0 >= 0.0:
+                t_in = max(t_in, s0 / (s0 - s1))
+                ends_outside = True
+            elif s1 >= 0.0:
+                t_out = min(t_out, s0 / (s0 - s1))
+        if t_in >= t_out or t_in <= 0.0 or t_out >= 1.0 or not ends_outside:
+            continue  # misses, or an end is inside (its vertex contact covers it)
+        best = 0.0
+        bt = 0.0
+        for k in range(4):
+            t = t_in + (k + 0.5) / 4.0 * (t_out - t_in)
+            depth = _exit(
+                planes,
+                first,
+                last,
+                l0x + t * (l1x - l0x),
+                l0y + t * (l1y - l0y),
+                l0z + t * (l1z - l0z),
+                ux,
+                uy,
+                uz,
+                r,
+            )
+            if depth > best:
+                best = depth
+                bt = t
+        if best <= 0.0:
+            continue
+        wx = px[i] + bt * (px[j] - px[i])
+        wy = py[i] + bt * (py[j] - py[i])
+        wz = pz[i] + bt * (pz[j] - pz[i])
+        # The matching point on the host: moved out by the depth along the way out.
+        hx, hy, hz = wx + sign * best * nx, wy + sign * best * ny, wz + sign * best * nz
+        if sign > 0:  # intruder a, host b
+            ax, ay, az, bx, by, bz = wx, wy, wz, hx, hy, hz
+        else:  # intruder b, host a
+            ax, ay, az, bx, by, bz = hx, hy, hz, wx, wy, wz
+        found[count, 0] = best
+        found[count, 1] = ax - centre[a, 0]
+        found[count, 2] = ay - centre[a, 1]
+        found[count, 3] = az - centre[a, 2]
+        found[count, 4] = bx - centre[b, 0]
+        found[count, 5] = by - centre[b, 1]
+        found[count, 6] = bz - centre[b, 2]
+        count += 1
+    return count
+
+
 @serial_kernel
 def body_contacts(
     px,
@@ -268,10 +390,14 @@ def body_contacts(
     planes,
     group,
     rotation,
+    edge_start,
+    edges,
     friction,
     hits,
 ):
     """Project particles out of other bodies' shapes (see the module docstring).
+
+    ``edges`` (k, 2) are particle pairs, body ``i``'s in ``edge_start[i]:edge_start[i+1]``.
 
     ``rest`` (e, 3) are the body entries' rest positions about the centre of mass [m];
     ``body_inv_mass`` (b,) [1/kg] and ``rest_inv_inertia`` (b, 3, 3) [1/(kg m²)] (rest
@@ -289,7 +415,10 @@ def body_contacts(
     largest = 0
     for b in range(nb):
         largest = max(largest, body_start[b + 1] - body_start[b])
-    found = np.empty((2 * largest, 7))
+    most_edges = 0
+    for b in range(nb):
+        most_edges = max(most_edges, edge_start[b + 1] - edge_start[b])
+    found = np.empty((2 * largest + 2 * most_edges, 7))
     box = np.empty((nb, 6))
     centre = np.zeros((nb, 3))
     before = np.zeros((nb, 3))
@@ -434,6 +563,50 @@ def body_contacts(
                 found[count, 6] = pz[i] - centre[b, 2]
                 hits[i] += 1
                 count += 1
+            count = _edge_contacts(
+                px,
+                py,
+                pz,
+                radius,
+                edge_start,
+                edges,
+                plane_start,
+                planes,
+                centre,
+                rotation,
+                a,
+                b,
+                1.0,
+                nx,
+                ny,
+                nz,
+                a,
+                b,
+                found,
+                count,
+            )
+            count = _edge_contacts(
+                px,
+                py,
+                pz,
+                radius,
+                edge_start,
+                edges,
+                plane_start,
+                planes,
+                centre,
+                rotation,
+                b,
+                a,
+                -1.0,
+                nx,
+                ny,
+                nz,
+                a,
+                b,
+                found,
+                count,
+            )
             if count == 0:
                 continue
             deepest = 0.0

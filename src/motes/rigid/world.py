@@ -381,6 +381,10 @@ class World:
             "body_inv_mass": np.array([b["inv_mass"] for b in bodies], dtype=np.float64),
             "inertia_inv": np.array([b["inertia_inv"] for b in bodies]).reshape(-1, 3, 3),
             "plane_start": np.concatenate([[0], np.cumsum(plane_sizes)]).astype(np.int64),
+            "edge_start": np.concatenate(
+                [[0], np.cumsum([len(b["edges"]) for b in bodies])]
+            ).astype(np.int64),
+            "edges": np.ascontiguousarray(cat("edges", (0, 2)), dtype=np.int64),
             "planes": np.ascontiguousarray(cat("planes", (0, 4)), dtype=np.float64),
             "group": np.array([b["group"] for b in bodies], dtype=np.int64),
             "rotation": None,
@@ -415,6 +419,15 @@ class World:
         # Flat or thin bodies (a pelvis triangle) have a near-singular inertia: a floor of
         # 1e-6 of its trace keeps the inverse finite.
         inertia += 1e-6 * max(np.trace(inertia), 1e-12) * np.eye(3)
+        # Hull edges: particle pairs that share two faces (for edge-across-face contacts).
+        pairs = shape.sticks
+        if len(shape.planes) and len(pairs):
+            scale = max(float(np.ptp(shape.positions, axis=0).max()), 1e-12)
+            on = np.abs(shape.positions @ shape.planes[:, :3].T - shape.planes[:, 3]) < 1e-6 * scale
+            shared = (on[pairs[:, 0]] & on[pairs[:, 1]]).sum(axis=1)
+            edges = index[pairs[shared >= 2]]
+        else:
+            edges = np.zeros((0, 2), dtype=np.int64)
         movable = bool(np.all(inv_mass[index] > 0))
         return {
             "particles": index,
@@ -424,6 +437,7 @@ class World:
             "group": body["group"],
             "inv_mass": 1.0 / m.sum() if movable else 0.0,
             "inertia_inv": np.linalg.inv(inertia) if movable else np.zeros((3, 3)),
+            "edges": edges.reshape(-1, 2).astype(np.int64),
         }
 
     def step(self, dt: float) -> None:
@@ -482,6 +496,8 @@ class World:
                     s["planes"],
                     s["group"],
                     s["rotation"],
+                    s["edge_start"],
+                    s["edges"],
                     self.body_friction,
                     hits,
                 )

@@ -267,7 +267,7 @@ def box_tower(table: Table, context: BuildContext) -> RigidScene:
     world = _world(table, context)
     levels = table.get("levels", integer(1, 30), 6)
     size = table.get("box_size", positive(), 0.5)
-    speed = table.get("projectile_speed", positive(), 8.0)
+    speed = table.get("projectile_speed", positive(), 12.0)
     delay = table.get("delay", number(0.0), 1.0)
     scene = RigidScene(world)
     gap = 0.02 * size  # the corner particles' contact radius is 1 % of the size
@@ -276,7 +276,7 @@ def box_tower(table: Table, context: BuildContext) -> RigidScene:
             c = (dx, (k + 0.5) * (size + gap), 0.0)
             body = world.add_body(rigid.BodyShape.box(c, (size,) * 3, 1.0))
             scene.boxes.append((body.index, np.full(3, size), _BOX_COLORS[(k + j) % 4]))
-    ball = world.add_body(rigid.BodyShape.box((-6.0, 1.0, 0.0), (0.4,) * 3, 6.0))
+    ball = world.add_body(rigid.BodyShape.box((-6.0, 1.0, 0.0), (0.4,) * 3, 20.0))
     scene.boxes.append((ball.index, np.full(3, 0.4), (0.25, 0.25, 0.28)))
     world.pin(ball.particles)  # held until thrown
     aim = np.array([0.0, 0.55 * levels * size, 0.0]) - (-6.0, 1.0, 0.0)
