@@ -17,7 +17,9 @@ It prints a table, then one line of JSON with the figures:
   :meth:`motes.constrain.ConstraintSet.sweep`, against :func:`numpy_sweep`, the same
   colour-by-colour Gauss–Seidel sweep vectorised per colour in NumPy (it produces the
   same positions to round-off). The figure is constraint projections per second and its
-  ratio to NumPy's.
+  ratio to NumPy's. Each colour is a parallel loop that waits for its slowest thread: on
+  a machine whose cores are busy with other work the parallel sweep can take ten times
+  its best time, so the one-thread sweep is reported beside it.
 
 Timings are the best of several calls after warm-up calls, with the median beside it;
 the cores other processes kept busy are reported too (a shared machine inflates them).
@@ -137,6 +139,14 @@ def bench_lattice(sizes: Sizes) -> dict:
     timing = time_calls(
         lambda: constraints.sweep(ours, inv_mass, 1 / 60), repeat=sizes.repeat, warmup=2
     )
+    previous = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        one = time_calls(
+            lambda: constraints.sweep(ours, inv_mass, 1 / 60), repeat=sizes.repeat, warmup=1
+        )
+    finally:
+        numba.set_num_threads(previous)
     base = time_calls(
         lambda: numpy_sweep(constraints, theirs, inv_mass),
         repeat=max(2, sizes.repeat // 4),
@@ -145,6 +155,7 @@ def bench_lattice(sizes: Sizes) -> dict:
     m = len(constraints)
     return {
         "timing": timing,
+        "one_thread": one,
         "numpy": base,
         "particles": constraints.particle_count,
         "constraints": m,
@@ -209,6 +220,8 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
     figures |= {
         f"{LATTICE_KEY}_sweep_ms": 1e3 * lat["timing"].best,
         f"{LATTICE_KEY}_numpy_sweep_ms": 1e3 * lat["numpy"].best,
+        f"{LATTICE_KEY}_1thread_sweep_ms": 1e3 * lat["one_thread"].best,
+        f"{LATTICE_KEY}_1thread_speedup_vs_numpy": lat["numpy"].best / lat["one_thread"].best,
         f"{LATTICE_KEY}_projections_per_s": lat["per_s"],
         f"{LATTICE_KEY}_numpy_projections_per_s": lat["numpy_per_s"],
         f"{LATTICE_KEY}_speedup_vs_numpy": lat["per_s"] / lat["numpy_per_s"],
@@ -226,6 +239,7 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
                     f"{lat['colors']} colours",
                 ),
                 ("motes sweep", _ms(lat["timing"])),
+                ("motes sweep, 1 thread", _ms(lat["one_thread"])),
                 ("NumPy sweep", _ms(lat["numpy"])),
                 ("projections/s", f"{lat['per_s']:.3g} (NumPy {lat['numpy_per_s']:.3g})"),
                 ("speed-up", f"{lat['per_s'] / lat['numpy_per_s']:9.1f}x"),
