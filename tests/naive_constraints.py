@@ -160,3 +160,81 @@ def project_contacts(x, q, radius, w, colliders):
             if tl > 0:
                 x[p] -= min(1.0, col.friction * depth / tl) * t
     return x
+
+
+def _segment_triangle(a, d, tri):
+    """Fraction s along a + s d where the segment crosses the triangle (Möller–Trumbore)."""
+    e1, e2 = tri[1] - tri[0], tri[2] - tri[0]
+    h = np.cross(d, e2)
+    det = e1 @ h
+    if abs(det) < 1e-300:
+        return np.inf
+    s_ = a - tri[0]
+    u = (s_ @ h) / det
+    qv = np.cross(s_, e1)
+    v = (d @ qv) / det
+    s = (e2 @ qv) / det
+    if u < 0 or u > 1 or v < 0 or u + v > 1 or s < 0 or s > 1:
+        return np.inf
+    return s
+
+
+def sweep_one(collider, a, d, r):
+    """Earliest hit (fraction, normal, stand-off) of a -> a + d against one collider."""
+    from motes.collide import Box, Plane
+
+    miss = (np.inf, np.zeros(3), 0.0)
+    if isinstance(collider, Plane):
+        n = collider.normal
+        s0 = a @ n - collider.offset - r
+        s1 = s0 + d @ n
+        return (s0 / (s0 - s1), n, 0.0) if s0 >= 0 and s1 < 0 else miss
+    if isinstance(collider, Box):
+        rot = collider.rotation
+        o = (a - collider.center) @ rot
+        v = d @ rot
+        enter, leave, normal = -np.inf, np.inf, np.zeros(3)
+        for k in range(3):
+            h = collider.half_extent[k] + r
+            if v[k] == 0:
+                if abs(o[k]) > h:
+                    return miss
+                continue
+            t0, t1, sign = (-h - o[k]) / v[k], (h - o[k]) / v[k], -1.0
+            if t0 > t1:
+                t0, t1, sign = t1, t0, 1.0
+            if t0 > enter:
+                enter, normal = t0, sign * rot[:, k]
+            leave = min(leave, t1)
+        return (enter, normal, 0.0) if enter <= leave and 0 <= enter <= 1 else miss
+    tris = collider.triangles.reshape(-1, 3, 3)
+    hits = [_segment_triangle(a, d, t) for t in tris]
+    k = int(np.argmin(hits))
+    if not np.isfinite(hits[k]):
+        return miss
+    n = np.cross(tris[k][1] - tris[k][0], tris[k][2] - tris[k][0])
+    n /= np.linalg.norm(n)
+    if n @ d > 0:
+        n = -n
+    return hits[k], n, r + collider.thickness
+
+
+def sweep_contacts(x, q, radius, w, colliders, gap=1e-6):
+    """Stop each particle at its path's first hit and reflect its step; x, q (n, 3)."""
+    x, q = x.copy(), q.copy()
+    for p in range(len(x)):
+        if w[p] <= 0:
+            continue
+        a, d = q[p].copy(), x[p] - q[p]
+        best = (np.inf, None, 0.0, None)
+        for col in colliders:
+            t, n, off = sweep_one(col, a, d, radius[p])
+            if t < best[0]:
+                best = (t, n, off, col)
+        t, n, off, col = best
+        if col is None:
+            continue
+        x[p] = a + t * d + (off + gap) * n
+        step = d - (1 + col.restitution) * (d @ n) * n
+        q[p] = x[p] - step
+    return x, q

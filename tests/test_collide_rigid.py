@@ -9,6 +9,7 @@ import naive_constraints as naive
 from motes.collide import Box, Plane, Sphere
 from motes.collide.capsule import Capsule
 from motes.collide.contact import pack, project_contacts
+from motes.collide.swept import sweep_contacts
 from motes.collide.mesh import TriangleMeshCollider
 
 
@@ -159,3 +160,29 @@ def test_a_crate_lying_across_a_narrower_plank_rests_on_it():
     centre, _ = w.transforms()
     # Plank top (0.09 m incl. contact radii) plus half the crate: about 0.26 m.
     assert_allclose(centre[1, 1], 0.09 + 0.175, atol=0.01)
+
+
+def test_swept_kernel_matches_the_twin():
+    rng = np.random.default_rng(11)
+    r = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    r *= np.sign(np.linalg.det(r))
+    cols = [
+        Plane((0.2, 1.0, 0.1), -0.8, restitution=0.3),
+        Box((0.3, 0.0, 0.0), (0.05, 1.5, 1.5), rotation=r, restitution=0.6),
+        TriangleMeshCollider(sphere_mesh(0.6, 1), thickness=0.01, restitution=0.1),
+    ]
+    n = 300
+    q = rng.uniform(-1.5, 1.5, size=(n, 3))
+    x = q + rng.normal(scale=1.0, size=(n, 3))  # long paths: many cross something
+    radius = rng.uniform(0, 0.03, n)
+    w = np.ones(n)
+    w[:5] = 0
+    table, tri, start, lists = pack(cols, ["priori"] * 3)
+    ours_x, ours_q = np.ascontiguousarray(x.T), np.ascontiguousarray(q.T)
+    hits = np.zeros(n, dtype=np.int64)
+    sweep_contacts(*ours_x, *ours_q, radius, w, table, tri, start, lists, hits)
+    theirs_x, theirs_q = naive.sweep_contacts(x, q, radius, w, cols)
+    assert hits.sum() > 50
+    # float64 round-off of the intersection arithmetic on O(1) values.
+    assert_allclose(ours_x.T, theirs_x, rtol=0, atol=1e-9)
+    assert_allclose(ours_q.T, theirs_q, rtol=0, atol=1e-9)
