@@ -9,8 +9,8 @@ import naive_constraints as naive
 from motes.collide import Box, Plane, Sphere
 from motes.collide.capsule import Capsule
 from motes.collide.contact import pack, project_contacts
-from motes.collide.swept import sweep_contacts
 from motes.collide.mesh import TriangleMeshCollider
+from motes.collide.swept import sweep_contacts
 
 
 def sphere_mesh(radius=1.0, subdivisions=2):
