@@ -238,3 +238,141 @@ def sweep_contacts(x, q, radius, w, colliders, gap=1e-6):
         step = d - (1 + col.restitution) * (d @ n) * n
         q[p] = x[p] - step
     return x, q
+
+
+# --- body against body -----------------------------------------------------------------
+
+
+def _exit(planes, rest_l, u, r):
+    """Distance along u (host frame) out of the host's faces grown by r; -1 if outside."""
+    s = planes[:, :3] @ rest_l - planes[:, 3]
+    if np.any(s >= r):
+        return -1.0
+    along = planes[:, :3] @ u
+    ok = along > 1e-9
+    return float(np.min((r - s[ok]) / along[ok])) if ok.any() else -1.0
+
+
+def body_contacts(x, q, radius, built, rotation, friction):
+    """Twin of ``collide.bodies.body_contacts`` for the arrays of a built World.
+
+    ``x``, ``q`` are (n, 3); ``rotation`` (b, 3, 3) the bodies' rotations (held fixed).
+    Returns the new x.
+    """
+    x = x.copy()
+    start, owner_particles = built["body_start"], built["body_particles"]
+    fraction, planes_all = built["fraction"], built["planes"]
+    plane_start, group = built["plane_start"], built["group"]
+    inv_m = built["body_inv_mass"]
+    edge_start, edges = built["edge_start"], built["edges"]
+    nb = len(start) - 1
+    parts = [owner_particles[start[b] : start[b + 1]] for b in range(nb)]
+    fracs = [fraction[start[b] : start[b + 1]] for b in range(nb)]
+    planes = [planes_all[plane_start[b] : plane_start[b + 1]] for b in range(nb)]
+    iinv = [rotation[b] @ built["inertia_inv"][b] @ rotation[b].T for b in range(nb)]
+    centre = [fracs[b] @ x[parts[b]] for b in range(nb)]
+    before = [fracs[b] @ q[parts[b]] for b in range(nb)]
+    lo = [np.min(x[parts[b]] - radius[parts[b], None], axis=0) for b in range(nb)]
+    hi = [np.max(x[parts[b]] + radius[parts[b], None], axis=0) for b in range(nb)]
+
+    def weight(b, rho, n):
+        t = np.cross(rho, n)
+        return inv_m[b] + t @ iinv[b] @ t
+
+    def move(b, rho, n, lam):  # impulse -lam n at centre + rho
+        omega = -lam * iinv[b] @ np.cross(rho, n)
+        idx = parts[b]
+        x[idx] += -lam * inv_m[b] * n + np.cross(omega, x[idx] - centre[b])
+
+    def push(a, b, s, rho, n, lam):
+        move(a, s, -n, lam)
+        move(b, rho, n, lam)
+        centre[a] = centre[a] + lam * inv_m[a] * n
+        centre[b] = centre[b] - lam * inv_m[b] * n
+
+    def overlap(a, b):
+        if len(planes[b]) == 0:
+            return np.inf, -1
+        normals = planes[b][:, :3] @ rotation[b].T  # world normals, (f, 3)
+        s = (x[parts[a]] - centre[b]) @ normals.T - planes[b][:, 3]
+        deepest = np.max(radius[parts[a], None] - s, axis=0)
+        f = int(np.argmin(deepest))
+        return deepest[f], f
+
+    def edge_contacts(intruder, host, sign, n, a, b, found):
+        rot = rotation[host]
+        u = sign * (rot.T @ n)
+        for i, j in edges[edge_start[intruder] : edge_start[intruder + 1]]:
+            r = 0.5 * (radius[i] + radius[j])
+            l0, l1 = rot.T @ (x[i] - centre[host]), rot.T @ (x[j] - centre[host])
+            t_in, t_out, outside = 0.0, 1.0, False
+            for f in planes[host]:
+                s0 = f[:3] @ l0 - f[3] - r
+                s1 = f[:3] @ l1 - f[3] - r
+                if s0 >= 0 and s1 >= 0:
+                    t_in = 1.0
+                    break
+                if s0 >= 0:
+                    t_in, outside = max(t_in, s0 / (s0 - s1)), True
+                elif s1 >= 0:
+                    t_out = min(t_out, s0 / (s0 - s1))
+            if t_in >= t_out or t_in <= 0 or t_out >= 1 or not outside:
+                continue
+            samples = [t_in + (k + 0.5) / 4 * (t_out - t_in) for k in range(4)]
+            depths = [_exit(planes[host], l0 + t * (l1 - l0), u, r) for t in samples]
+            k = int(np.argmax(depths))
+            if depths[k] <= 0:
+                continue
+            point = x[i] + samples[k] * (x[j] - x[i])
+            other = point + sign * depths[k] * n
+            pa, pb = (point, other) if sign > 0 else (other, point)
+            found.append((depths[k], pa - centre[a], pb - centre[b]))
+
+    for first in range(nb):
+        for second in range(first + 1, nb):
+            if group[first] == group[second]:
+                continue
+            if np.any(lo[first] > hi[second]) or np.any(lo[second] > hi[first]):
+                continue
+            ab, face_ab = overlap(first, second)
+            ba, face_ba = overlap(second, first)
+            if min(ab, ba) <= 0:
+                continue
+            a, b, face = (first, second, face_ab) if ab <= ba else (second, first, face_ba)
+            n = rotation[b] @ planes[b][face, :3]
+            found = []
+            for i in parts[a]:
+                local = rotation[b].T @ (x[i] - centre[b])
+                if np.any(planes[b][:, :3] @ local - planes[b][:, 3] >= radius[i]):
+                    continue
+                gap = planes[b][face, :3] @ local - planes[b][face, 3]
+                found.append((radius[i] - gap, x[i] - centre[a], x[i] - centre[b] - gap * n))
+            u = -(rotation[a].T @ n)
+            for i in parts[b]:
+                if len(planes[a]) == 0:
+                    break
+                t = _exit(planes[a], rotation[a].T @ (x[i] - centre[a]), u, radius[i])
+                if t <= 0:
+                    continue
+                found.append((t, x[i] - centre[a] - t * n, x[i] - centre[b]))
+            edge_contacts(a, b, 1.0, n, a, b, found)
+            edge_contacts(b, a, -1.0, n, a, b, found)
+            if not found:
+                continue
+            deepest = 0.0
+            for depth, s, rho in found:
+                deepest = max(deepest, depth)
+                total = weight(a, s, n) + weight(b, rho, n)
+                if total > 0:
+                    push(a, b, s, rho, n, depth / total / len(found))
+            if friction <= 0:
+                continue
+            travel = (centre[a] - before[a]) - (centre[b] - before[b])
+            tangent = travel - (travel @ n) * n
+            t = np.linalg.norm(tangent)
+            total = inv_m[a] + inv_m[b]
+            if t <= 0 or total <= 0:
+                continue
+            lam = min(t, friction * deepest) / total
+            push(a, b, np.zeros(3), np.zeros(3), -tangent / t, lam)
+    return x

@@ -228,8 +228,12 @@ def add_ragdoll(
     local = np.array([layout[n] for n in NAMES])
     pos = check.vector("position", position)
     rot = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)
-    if rot.shape != (3, 3) or not np.allclose(rot @ rot.T, np.eye(3), atol=1e-6):
-        raise ValueError("rotation must be a (3, 3) rotation matrix")
+    if (
+        rot.shape != (3, 3)
+        or not np.allclose(rot @ rot.T, np.eye(3), atol=1e-6)
+        or np.linalg.det(rot) < 0
+    ):
+        raise ValueError("rotation must be a (3, 3) rotation matrix (det +1)")
     world_pos = pos + local @ rot.T
     masses = dict.fromkeys(NAMES, 0.0)
     for names, fraction in _SEGMENT_MASS:

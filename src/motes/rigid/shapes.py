@@ -99,6 +99,8 @@ def _place(local, center, rotation):
     r = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)
     if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=1e-6):
         raise ValueError("rotation must be a (3, 3) rotation matrix")
+    if np.linalg.det(r) < 0:
+        raise ValueError("rotation must be a rotation (det +1), not a reflection")
     return c + local @ r.T
 
 
