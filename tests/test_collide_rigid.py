@@ -198,7 +198,9 @@ def test_body_contact_kernel_matches_the_twin():
     w.add_body(mr.BodyShape.box((0, 0, 0), (1.0, 0.6, 0.8), 3.0))
     w.add_body(mr.BodyShape.box((0.3, 0.55, 0.1), (0.5, 0.5, 0.5), 1.0, rotation=turn))
     w.add_body(mr.BodyShape.tetrahedron((-0.5, 0.3, 0.2), 0.6, 2.0))
-    w.add_body(mr.BodyShape.convex_hull(rng.normal(scale=0.3, size=(9, 3)) + (0.5, -0.3, 0.4)))
+    w.add_body(
+        mr.BodyShape.convex_hull(rng.normal(scale=0.3, size=(9, 3)) + np.array([0.5, -0.3, 0.4]))
+    )
     w.add_body(mr.BodyShape.box((0.0, -0.35, 0.0), (1.4, 0.1, 0.2), 1.0))  # edge across a box
     built = w._build()
     x = np.ascontiguousarray(w._position).copy()
