@@ -2,7 +2,7 @@
 
 import numpy as np
 
-DISTANCE, ANGLE = 0, 1
+DISTANCE, ANGLE, SIDE = 0, 1, 2
 
 
 def greedy_colors(ends, n):
@@ -25,7 +25,17 @@ def project(x, w, kind, ends, lo, hi, compliance, stiffness, lam, c, dt, approx,
     With ``q`` (positions at the start of the step) distance constraints push along the
     pair's direction in ``q`` (SHAKE) when it is within 60° of the current one.
     """
-    i, j, k = ends[c]
+    i, j, k = ends[c][:3]
+    if kind[c] == SIDE:
+        bone, axis = x[k] - x[i], x[ends[c][3]] - x[k]
+        n = hi[c] * np.cross(bone, axis)
+        if np.linalg.norm(n) ** 2 <= 0.25 * (bone @ bone) * (axis @ axis):
+            return  # sin(angle) <= 1/2: ill-defined plane
+        n /= np.linalg.norm(n)
+        side = (x[j] - x[k]) @ n - lo[c]
+        if side > 0 and w[j] > 0:
+            x[j] -= stiffness[c] * side * n
+        return
     d = x[j] - x[i]
     if kind[c] == ANGLE:
         a = np.linalg.norm(x[i] - x[k])

@@ -114,7 +114,7 @@ def test_ball_joint_and_hinge_by_shared_particles():
 def test_ragdoll_has_the_stated_topology_and_mass():
     w = mr.World()
     rd = mr.add_ragdoll(w, (0, 0, 0), height=1.8, mass=75.0)
-    assert w.count == 15 and len(w.constraints) == 31
+    assert w.count == 15 and len(w.constraints) == 35
     assert_allclose(w.mass.sum(), 75.0)
     assert_allclose(w.position[:, 1].max(), 0.936 * 1.8)
     assert rd.limit_violation(w.position).max() == 0.0

@@ -26,7 +26,7 @@ import numpy as np
 from .. import _validate as check
 from .._jit import serial_threads
 from .graph import color_constraints
-from .kernels import ANGLE, DISTANCE, apply_pins, relax_sweep
+from .kernels import ANGLE, DISTANCE, SIDE, apply_pins, relax_sweep
 
 
 def _pairs(name, value, width):
@@ -99,7 +99,7 @@ class ConstraintBuilder:
         hi = _per("max_length", max_length, m)
         if np.any(hi < lo):
             raise ValueError("max_length must be >= min_length")
-        ends = np.concatenate([pairs, np.full((m, 1), -1, dtype=np.int64)], axis=1)
+        ends = np.concatenate([pairs, np.full((m, 2), -1, dtype=np.int64)], axis=1)
         return self._add(ends, DISTANCE, lo, hi, stiffness, compliance)
 
     def add_sticks(self, pairs, rest_length, *, stiffness=1.0, compliance=0.0):
@@ -127,13 +127,32 @@ class ConstraintBuilder:
         hi = _per("max_angle", max_angle, m, high=np.pi)
         if np.any(hi < lo):
             raise ValueError("max_angle must be >= min_angle")
-        ends = triples[:, [1, 2, 0]]
+        ends = np.concatenate([triples[:, [1, 2, 0]], np.full((m, 1), -1, np.int64)], axis=1)
         return self._add(ends, ANGLE, np.cos(lo), np.cos(hi), stiffness, compliance)
+
+    def add_hinge_sides(self, quads, orientation, offset=0.0, *, stiffness=1.0):
+        """Keep hinges from bending backwards; ``quads`` rows are ``(i, k, a, j)``.
+
+        ``i -> k`` is the bone before the joint ``k`` (a thigh), ``k -> a`` points across
+        the hinge (to a particle on the body's other side: the other hip), and ``j`` (the
+        ankle) is kept where ``(x_j - x_k) · n̂ <= offset`` [m] with
+        ``n = orientation (x_k - x_i) × (x_a - x_k)``; ``orientation`` (+1 or -1 per
+        row) picks the forbidden side (``World.add_hinge_sides`` chooses it from the
+        current pose).
+        """
+        quads = _pairs("quads", quads, 4)
+        m = len(quads)
+        lo = _per("offset", offset, m, low=-np.inf)
+        sign = np.broadcast_to(np.asarray(orientation, dtype=np.float64), (m,)).copy()
+        if not np.all(np.abs(sign) == 1.0):
+            raise ValueError("orientation must be +1 or -1")
+        ends = quads[:, [0, 3, 1, 2]]  # i, j, k, a: j is the moved end, k the joint
+        return self._add(ends, SIDE, lo, sign, stiffness, 0.0)
 
     def build(self, particle_count: int) -> ConstraintSet:
         """The coloured, compiled-ready set over ``particle_count`` particles."""
         n = check.integer("particle_count", particle_count, low=0)
-        ends = np.concatenate(self._ends) if self._ends else np.zeros((0, 3), np.int64)
+        ends = np.concatenate(self._ends) if self._ends else np.zeros((0, 4), np.int64)
         if ends.size and ends.max() >= n:
             raise ValueError(f"constraints index particle {ends.max()}, but there are {n}")
         order, color_start = color_constraints(ends, n)
@@ -159,10 +178,11 @@ class ConstraintSet:
 
     Attributes
     ----------
-    ends : (m, 3) int64
-        ``i, j`` and, for angle limits, the pivot (``-1`` otherwise), in colour order.
+    ends : (m, 4) int64
+        ``i, j``, then the pivot of an angle limit, or the joint and axis particle of a
+        hinge side limit (``-1`` where unused), in colour order.
     kind : (m,) int8
-        ``DISTANCE`` (0) or ``ANGLE`` (1).
+        ``DISTANCE`` (0), ``ANGLE`` (1) or ``SIDE`` (2).
     lo, hi : (m,) float64
         Distance bounds [m] or, for angle limits, cos of the min and max angle.
     compliance : (m,) float64

@@ -26,7 +26,7 @@ def _greedy_colors(ends, particle_count, out):
     used = np.zeros(particle_count, dtype=np.uint64)
     for c in range(ends.shape[0]):
         taken = np.uint64(0)
-        for e in range(3):
+        for e in range(ends.shape[1]):
             p = ends[c, e]
             if p >= 0:
                 taken |= used[p]
@@ -38,7 +38,7 @@ def _greedy_colors(ends, particle_count, out):
             return False
         out[c] = color
         bit = np.uint64(1) << np.uint64(color)
-        for e in range(3):
+        for e in range(ends.shape[1]):
             p = ends[c, e]
             if p >= 0:
                 used[p] |= bit
@@ -50,7 +50,7 @@ def color_constraints(ends: np.ndarray, particle_count: int) -> tuple[np.ndarray
 
     Parameters
     ----------
-    ends : (m, 3) int64 array
+    ends : (m, w) int64 array
         Particles each constraint touches; ``-1`` marks an unused slot.
     particle_count : int
         Number of particles the indices refer to.

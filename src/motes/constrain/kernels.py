@@ -31,6 +31,14 @@ direction (Jakobsen, PBD) shortens the implied velocity's chord every step: a 60
 pendulum at h = 1/60 s loses a third of its energy in four seconds. Angle limits always
 use the current direction.
 
+A hinge side limit (``SIDE``) keeps a joint from bending backwards, which an angle
+limit cannot tell from bending forwards: with the bone ``i -> k`` (thigh) and the hinge
+axis ``k -> a`` (a particle across the body), ``n = σ (x_k - x_i) × (x_a - x_k)`` with
+an orientation σ = ±1 (column ``hi``), and the particle ``j`` (ankle) is kept where
+``(x_j - x_k) · n̂ <= lo`` by moving ``j`` alone along ``n̂`` (a one-sided temporary
+constraint in Jakobsen's sense; moving the joint too fought the angle limits that meet
+there).
+
 With ``sqrt_approximation`` a rigid (``α = 0``) distance constraint replaces the exact
 ``(|d| - r)/|d|`` by Jakobsen's square-root-free ``(|d|^2 - r^2)/(|d|^2 + r^2)``, its
 first-order Taylor expansion about ``|d| = r``: for ``|d| = r(1 + e)`` the correction
@@ -49,6 +57,37 @@ from .._jit import BLOCK, device, parallel_kernel, serial_kernel
 #: Constraint kinds (column ``kind``).
 DISTANCE = 0
 ANGLE = 1
+SIDE = 2
+
+
+@device
+def _project_side(c, px, py, pz, inv_mass, ends, lo, hi, stiffness):
+    """Keep j on one side of a hinge (see the module docstring); moves j only."""
+    i = ends[c, 0]
+    j = ends[c, 1]
+    k = ends[c, 2]
+    a = ends[c, 3]
+    # Bone i -> k and hinge axis k -> a: their cross product is the side's normal.
+    bx, by, bz = px[k] - px[i], py[k] - py[i], pz[k] - pz[i]
+    ax, ay, az = px[a] - px[k], py[a] - py[k], pz[a] - pz[k]
+    nx = by * az - bz * ay
+    ny = bz * ax - bx * az
+    nz = bx * ay - by * ax
+    norm = np.sqrt(nx * nx + ny * ny + nz * nz)
+    b2 = bx * bx + by * by + bz * bz
+    a2 = ax * ax + ay * ay + az * az
+    if norm * norm <= 0.25 * b2 * a2:
+        return  # bone and axis within 30° of parallel: the plane is ill-defined
+    # hi holds the orientation (+1 or -1): which side of the plane is forbidden.
+    nx, ny, nz = hi[c] * nx / norm, hi[c] * ny / norm, hi[c] * nz / norm
+    side = (px[j] - px[k]) * nx + (py[j] - py[k]) * ny + (pz[j] - pz[k]) * nz - lo[c]
+    if side <= 0.0 or inv_mass[j] <= 0.0:
+        return
+    # Only j moves: moving the joint too disturbs the angle limits meeting there.
+    s = stiffness[c] * side
+    px[j] -= s * nx
+    py[j] -= s * ny
+    pz[j] -= s * nz
 
 
 @device
@@ -72,6 +111,9 @@ def _project(
     approx,
     shake,
 ):
+    if kind[c] == SIDE:
+        _project_side(c, px, py, pz, inv_mass, ends, lo, hi, stiffness)
+        return
     i = ends[c, 0]
     j = ends[c, 1]
     dx = px[j] - px[i]

@@ -1,4 +1,4 @@
-"""A ragdoll of 15 particles and 31 constraints (Jakobsen 2001, §5, the Hitman ragdoll).
+"""A ragdoll of 15 particles and 35 constraints (Jakobsen 2001, §5, the Hitman ragdoll).
 
 Particles sit at the joints; sticks make the bones; the torso is a rigid tetrahedron
 (neck, both shoulders, a chest point in front of the spine) and the pelvis a rigid
@@ -265,6 +265,13 @@ def add_ragdoll(
     triples = np.array([[ids[a], ids[b], ids[c]] for a, b, c, _, _ in LIMITS])
     ranges = np.radians([[lo, hi] for *_, lo, hi in LIMITS])
     world.add_angle_limits(triples, ranges[:, 0], ranges[:, 1], compliance=compliance)
+    # Knees and elbows bend one way: the side the (slightly bent) standing pose has.
+    hinges = [
+        (f"{upper}_{s}", f"{joint}_{s}", f"{upper}_{o}", f"{end}_{s}")
+        for upper, joint, end in (("hip", "knee", "ankle"), ("shoulder", "elbow", "wrist"))
+        for s, o in (("l", "r"), ("r", "l"))
+    ]
+    world.add_hinge_sides([[ids[n] for n in row] for row in hinges])
     return Ragdoll(ids, triples, ranges, torso, pelvis)
 
 

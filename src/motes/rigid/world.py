@@ -248,6 +248,19 @@ class World:
             compliance=compliance,
         )
 
+    def add_hinge_sides(self, quads, offset=0.0, *, stiffness=1.0):
+        """Keep hinge joints bending one way only; rows ``(i, k, a, j)`` (see
+        :meth:`motes.constrain.ConstraintBuilder.add_hinge_sides`). The side ``j`` is
+        on now is the allowed one: build the body slightly bent the right way."""
+        quads = self._pairs(quads, 4)
+        x = self.position
+        i, k, a, j = (quads[:, c] for c in range(4))
+        n = np.cross(x[k] - x[i], x[a] - x[k])
+        side = np.einsum("ij,ij->i", x[j] - x[k], n)
+        orientation = np.where(side > 0, -1.0, 1.0)
+        self._built = None
+        return self._constraints.add_hinge_sides(quads, orientation, offset, stiffness=stiffness)
+
     def pin(self, indices, targets=None) -> None:
         """Hold particles at ``targets`` ((k, 3) [m]; default: where they are)."""
         idx = np.atleast_1d(np.asarray(indices))
