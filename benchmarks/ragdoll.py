@@ -19,7 +19,9 @@ It prints a table, then one line of JSON with the figures:
   same positions to round-off). The figure is constraint projections per second and its
   ratio to NumPy's. Each colour is a parallel loop that waits for its slowest thread: on
   a machine whose cores are busy with other work the parallel sweep can take ten times
-  its best time, so the one-thread sweep is reported beside it.
+  its best time, so the one-thread sweep is reported beside it, and
+  ``lattice_100k_speedup_vs_numpy`` is NumPy's time over the faster of the two (the
+  all-thread ratio is ``lattice_100k_parallel_speedup_vs_numpy``).
 
 Timings are the best of several calls after warm-up calls, with the median beside it;
 the cores other processes kept busy are reported too (a shared machine inflates them).
@@ -224,7 +226,9 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
         f"{LATTICE_KEY}_1thread_speedup_vs_numpy": lat["numpy"].best / lat["one_thread"].best,
         f"{LATTICE_KEY}_projections_per_s": lat["per_s"],
         f"{LATTICE_KEY}_numpy_projections_per_s": lat["numpy_per_s"],
-        f"{LATTICE_KEY}_speedup_vs_numpy": lat["per_s"] / lat["numpy_per_s"],
+        f"{LATTICE_KEY}_parallel_speedup_vs_numpy": lat["per_s"] / lat["numpy_per_s"],
+        f"{LATTICE_KEY}_speedup_vs_numpy": lat["numpy"].best
+        / min(lat["timing"].best, lat["one_thread"].best),
         f"{LATTICE_KEY}_particles": lat["particles"],
         f"{LATTICE_KEY}_constraints": lat["constraints"],
         f"{LATTICE_KEY}_colors": lat["colors"],
@@ -242,7 +246,8 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
                 ("motes sweep, 1 thread", _ms(lat["one_thread"])),
                 ("NumPy sweep", _ms(lat["numpy"])),
                 ("projections/s", f"{lat['per_s']:.3g} (NumPy {lat['numpy_per_s']:.3g})"),
-                ("speed-up", f"{lat['per_s'] / lat['numpy_per_s']:9.1f}x"),
+                ("speed-up, all threads", f"{lat['per_s'] / lat['numpy_per_s']:9.1f}x"),
+                ("speed-up, 1 thread", f"{lat['numpy'].best / lat['one_thread'].best:9.1f}x"),
             ],
             title="2. Stick lattice, one relaxation sweep",
         )

@@ -11,6 +11,8 @@ REQUIRED = (
     "ragdolls_100_ms",
     "ragdolls_100_1thread_ms",
     "lattice_100k_speedup_vs_numpy",
+    "lattice_100k_parallel_speedup_vs_numpy",
+    "lattice_100k_1thread_speedup_vs_numpy",
     "lattice_100k_projections_per_s",
 )
 
