@@ -7,8 +7,8 @@ Run from the repository root::
 
 It prints a table, then one line of JSON with the figures:
 
-- **ragdolls**: 100 ragdolls (15 particles and 35 constraints each: 1,500 particles,
-  3,500 constraints) thrown onto a ground plane, stepped by :class:`motes.rigid.World`
+- **ragdolls**: 100 ragdolls (15 particles and 31 constraints each: 1,500 particles,
+  3,100 constraints) thrown onto a ground plane, stepped by :class:`motes.rigid.World`
   at h = 1/60 s with 10 relaxation iterations (constraints, ground contacts and the
   torsos' body contacts relaxed together). The figure is milliseconds per step; real
   time at 60 Hz is 16.7 ms. The same world on one thread is reported beside it.

@@ -27,7 +27,7 @@ def project(x, w, kind, ends, lo, hi, compliance, stiffness, lam, c, dt, approx,
     """
     i, j, k = ends[c][:3]
     if kind[c] == SIDE:
-        bone, axis = x[k] - x[i], x[ends[c][3]] - x[k]
+        bone, axis = x[k] - x[i], x[ends[c][4]] - x[ends[c][3]]
         n = hi[c] * np.cross(bone, axis)
         if np.linalg.norm(n) ** 2 <= 0.25 * (bone @ bone) * (axis @ axis):
             return  # sin(angle) <= 1/2: ill-defined plane

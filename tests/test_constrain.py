@@ -21,8 +21,8 @@ def random_graph(seed, n=60, m=150):
     builder.add_ropes(pairs[third : 2 * third], rest[third : 2 * third], compliance=1e-4)
     builder.add_distance(pairs[2 * third :], 0.9 * rest[2 * third :], 1.1 * rest[2 * third :])
     builder.add_angle_limits(triples, 0.8, 2.2)
-    quads = np.array([rng.choice(n, 4, replace=False) for _ in range(m // 10)])
-    builder.add_hinge_sides(quads, rng.choice([-1.0, 1.0], len(quads)), 0.05)
+    rows = np.array([rng.choice(n, 5, replace=False) for _ in range(m // 10)])
+    builder.add_hinge_sides(rows, rng.choice([-1.0, 1.0], len(rows)), 0.05)
     w = rng.uniform(0.5, 2.0, n)
     w[:3] = 0.0
     return builder.build(n), x, w
@@ -169,12 +169,12 @@ def test_angle_limit_opens_a_folded_joint_to_its_minimum_angle():
 
 
 def test_hinge_side_limit_straightens_a_knee_bent_backwards():
-    # Hip 0 at the origin, knee 1 below it, the other hip 2 along +x: n = thigh × axis.
+    # Hip 0 at the origin, knee 1 below it, the hip axis 0 -> 2 along +x.
     b = mc.ConstraintBuilder()
-    b.add_hinge_sides([[0, 1, 2, 3]], orientation=1.0)
+    b.add_hinge_sides([[0, 1, 0, 2, 3]], orientation=1.0)
     cs = b.build(4)
     x = np.array([[0.0, 0.0, 0.3, 0.0], [0.0, -0.5, 0.0, -1.0], [0.0, 0.0, 0.0, 0.2]])
-    n = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 1])
+    n = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
     assert (x[:, 3] - x[:, 1]) @ n > 0  # the ankle is on the forbidden side
     w = np.array([0.0, 0.0, 0.0, 1.0])
     cs.sweep(x, w, 1 / 60)

@@ -114,7 +114,7 @@ def test_ball_joint_and_hinge_by_shared_particles():
 def test_ragdoll_has_the_stated_topology_and_mass():
     w = mr.World()
     rd = mr.add_ragdoll(w, (0, 0, 0), height=1.8, mass=75.0)
-    assert w.count == 15 and len(w.constraints) == 35
+    assert w.count == 15 and len(w.constraints) == 31
     assert_allclose(w.mass.sum(), 75.0)
     assert_allclose(w.position[:, 1].max(), 0.936 * 1.8)
     assert rd.limit_violation(w.position).max() == 0.0
@@ -180,3 +180,16 @@ def test_world_steps_are_deterministic_and_thread_count_independent():
 def test_bad_input_names_the_parameter(call, message):
     with pytest.raises((ValueError, TypeError), match=message):
         call()
+
+
+def test_ragdoll_hinge_sides_straighten_a_knee_bent_backwards():
+    w = mr.World(gravity=(0, 0, 0), iterations=20)
+    doll = mr.add_ragdoll(w, (0, 0, 0), hinge_sides=True)
+    assert len(w.constraints) == 35
+    knee, ankle = doll.particles["knee_l"], doll.particles["ankle_l"]
+    w.position[ankle] += (0.0, 0.1, 0.25)  # the shin kicked forward: a knee bent backwards
+    w.previous[ankle] = w.position[ankle]
+    assert np.degrees(doll.limit_violation(w.position)[13]) > 20
+    w.step(1 / 60)
+    assert np.degrees(doll.limit_violation(w.position)[13]) < 1.0
+    assert w.position[ankle, 2] < w.position[knee, 2] + 0.01

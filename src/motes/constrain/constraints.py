@@ -29,7 +29,7 @@ from .graph import color_constraints
 from .kernels import ANGLE, DISTANCE, SIDE, apply_pins, relax_sweep
 
 
-def _pairs(name, value, width):
+def _pairs(name, value, width, *, distinct=True):
     arr = np.asarray(value)
     if arr.size == 0:
         return np.zeros((0, width), dtype=np.int64)
@@ -39,7 +39,7 @@ def _pairs(name, value, width):
         )
     if arr.min() < 0:
         raise ValueError(f"{name} must hold particle indices >= 0")
-    if np.any([len(set(row)) < width for row in arr.tolist()]):
+    if distinct and np.any([len(set(row)) < width for row in arr.tolist()]):
         raise ValueError(f"{name}: the particles of one constraint must be distinct")
     return arr.astype(np.int64)
 
@@ -99,7 +99,7 @@ class ConstraintBuilder:
         hi = _per("max_length", max_length, m)
         if np.any(hi < lo):
             raise ValueError("max_length must be >= min_length")
-        ends = np.concatenate([pairs, np.full((m, 2), -1, dtype=np.int64)], axis=1)
+        ends = np.concatenate([pairs, np.full((m, 3), -1, dtype=np.int64)], axis=1)
         return self._add(ends, DISTANCE, lo, hi, stiffness, compliance)
 
     def add_sticks(self, pairs, rest_length, *, stiffness=1.0, compliance=0.0):
@@ -127,32 +127,38 @@ class ConstraintBuilder:
         hi = _per("max_angle", max_angle, m, high=np.pi)
         if np.any(hi < lo):
             raise ValueError("max_angle must be >= min_angle")
-        ends = np.concatenate([triples[:, [1, 2, 0]], np.full((m, 1), -1, np.int64)], axis=1)
+        ends = np.concatenate([triples[:, [1, 2, 0]], np.full((m, 2), -1, np.int64)], axis=1)
         return self._add(ends, ANGLE, np.cos(lo), np.cos(hi), stiffness, compliance)
 
-    def add_hinge_sides(self, quads, orientation, offset=0.0, *, stiffness=1.0):
-        """Keep hinges from bending backwards; ``quads`` rows are ``(i, k, a, j)``.
+    def add_hinge_sides(self, rows, orientation, offset=0.0, *, stiffness=1.0):
+        """Keep hinges from bending backwards; ``rows`` are ``(i, k, l, r, j)``.
 
-        ``i -> k`` is the bone before the joint ``k`` (a thigh), ``k -> a`` points across
-        the hinge (to a particle on the body's other side: the other hip), and ``j`` (the
-        ankle) is kept where ``(x_j - x_k) · n̂ <= offset`` [m] with
-        ``n = orientation (x_k - x_i) × (x_a - x_k)``; ``orientation`` (+1 or -1 per
-        row) picks the forbidden side (``World.add_hinge_sides`` chooses it from the
-        current pose).
+        ``i -> k`` is the bone before the joint ``k`` (a thigh), ``l -> r`` the hinge
+        axis (hip to hip), and ``j`` (the ankle) is kept where
+        ``(x_j - x_k) · n̂ <= offset`` [m] with ``n = orientation (x_k - x_i) × (x_r - x_l)``;
+        ``orientation`` (+1 or -1 per row) picks the forbidden side
+        (``World.add_hinge_sides`` chooses it from the current pose). Where the bone is
+        within 30° of the axis the plane is ill-defined and the limit rests.
         """
-        quads = _pairs("quads", quads, 4)
-        m = len(quads)
+        rows = _pairs("rows", rows, 5, distinct=False)
+        if (
+            np.any(rows[:, 0] == rows[:, 1])
+            or np.any(rows[:, 2] == rows[:, 3])
+            or np.any(rows[:, [0, 1, 2, 3]] == rows[:, 4:5])
+        ):
+            raise ValueError("rows: i != k, l != r, and j distinct from the others")
+        m = len(rows)
         lo = _per("offset", offset, m, low=-np.inf)
         sign = np.broadcast_to(np.asarray(orientation, dtype=np.float64), (m,)).copy()
         if not np.all(np.abs(sign) == 1.0):
             raise ValueError("orientation must be +1 or -1")
-        ends = quads[:, [0, 3, 1, 2]]  # i, j, k, a: j is the moved end, k the joint
+        ends = rows[:, [0, 4, 1, 2, 3]]  # i, j, k, l, r: j is the moved end, k the joint
         return self._add(ends, SIDE, lo, sign, stiffness, 0.0)
 
     def build(self, particle_count: int) -> ConstraintSet:
         """The coloured, compiled-ready set over ``particle_count`` particles."""
         n = check.integer("particle_count", particle_count, low=0)
-        ends = np.concatenate(self._ends) if self._ends else np.zeros((0, 4), np.int64)
+        ends = np.concatenate(self._ends) if self._ends else np.zeros((0, 5), np.int64)
         if ends.size and ends.max() >= n:
             raise ValueError(f"constraints index particle {ends.max()}, but there are {n}")
         order, color_start = color_constraints(ends, n)
@@ -178,9 +184,9 @@ class ConstraintSet:
 
     Attributes
     ----------
-    ends : (m, 4) int64
-        ``i, j``, then the pivot of an angle limit, or the joint and axis particle of a
-        hinge side limit (``-1`` where unused), in colour order.
+    ends : (m, 5) int64
+        ``i, j``, then the pivot of an angle limit, or the joint and the two axis
+        particles of a hinge side limit (``-1`` where unused), in colour order.
     kind : (m,) int8
         ``DISTANCE`` (0), ``ANGLE`` (1) or ``SIDE`` (2).
     lo, hi : (m,) float64

@@ -33,8 +33,8 @@ use the current direction.
 
 A hinge side limit (``SIDE``) keeps a joint from bending backwards, which an angle
 limit cannot tell from bending forwards: with the bone ``i -> k`` (thigh) and the hinge
-axis ``k -> a`` (a particle across the body), ``n = σ (x_k - x_i) × (x_a - x_k)`` with
-an orientation σ = ±1 (column ``hi``), and the particle ``j`` (ankle) is kept where
+axis ``l -> r`` (hip to hip), ``n = σ (x_k - x_i) × (x_r - x_l)`` with an orientation
+σ = ±1 (column ``hi``), and the particle ``j`` (ankle) is kept where
 ``(x_j - x_k) · n̂ <= lo`` by moving ``j`` alone along ``n̂`` (a one-sided temporary
 constraint in Jakobsen's sense; moving the joint too fought the angle limits that meet
 there).
@@ -66,10 +66,11 @@ def _project_side(c, px, py, pz, inv_mass, ends, lo, hi, stiffness):
     i = ends[c, 0]
     j = ends[c, 1]
     k = ends[c, 2]
-    a = ends[c, 3]
-    # Bone i -> k and hinge axis k -> a: their cross product is the side's normal.
+    left = ends[c, 3]
+    right = ends[c, 4]
+    # Bone i -> k and hinge axis left -> right: their cross product is the side's normal.
     bx, by, bz = px[k] - px[i], py[k] - py[i], pz[k] - pz[i]
-    ax, ay, az = px[a] - px[k], py[a] - py[k], pz[a] - pz[k]
+    ax, ay, az = px[right] - px[left], py[right] - py[left], pz[right] - pz[left]
     nx = by * az - bz * ay
     ny = bz * ax - bx * az
     nz = bx * ay - by * ax

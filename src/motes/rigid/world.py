@@ -248,18 +248,18 @@ class World:
             compliance=compliance,
         )
 
-    def add_hinge_sides(self, quads, offset=0.0, *, stiffness=1.0):
-        """Keep hinge joints bending one way only; rows ``(i, k, a, j)`` (see
+    def add_hinge_sides(self, rows, offset=0.0, *, stiffness=1.0):
+        """Keep hinge joints bending one way only; rows ``(i, k, l, r, j)`` (see
         :meth:`motes.constrain.ConstraintBuilder.add_hinge_sides`). The side ``j`` is
         on now is the allowed one: build the body slightly bent the right way."""
-        quads = self._pairs(quads, 4)
+        rows = self._pairs(rows, 5)
         x = self.position
-        i, k, a, j = (quads[:, c] for c in range(4))
-        n = np.cross(x[k] - x[i], x[a] - x[k])
+        i, k, left, right, j = (rows[:, c] for c in range(5))
+        n = np.cross(x[k] - x[i], x[right] - x[left])
         side = np.einsum("ij,ij->i", x[j] - x[k], n)
         orientation = np.where(side > 0, -1.0, 1.0)
         self._built = None
-        return self._constraints.add_hinge_sides(quads, orientation, offset, stiffness=stiffness)
+        return self._constraints.add_hinge_sides(rows, orientation, offset, stiffness=stiffness)
 
     def pin(self, indices, targets=None) -> None:
         """Hold particles at ``targets`` ((k, 3) [m]; default: where they are)."""
