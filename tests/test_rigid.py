@@ -175,6 +175,7 @@ def test_world_steps_are_deterministic_and_thread_count_independent():
         (lambda: mr.add_ragdoll(mr.World(), height=-1), "height must be > 0"),
         (lambda: mr.BodyShape.box(size=(1, 0, 1)), "size must be > 0"),
         (lambda: mr.World().add_collider(Plane(), detection="later"), "detection must be"),
+        (lambda: mr.World().set_velocity([3], (1, 0, 0)), "indices must be in"),
     ],
 )
 def test_bad_input_names_the_parameter(call, message):

@@ -17,7 +17,7 @@ def test_ragdoll_stairs_never_enters_a_step_and_keeps_its_limits():
     scene = load_scene("ragdoll_stairs")
     body = scene.bodies["ragdoll"]
     world = body.world
-    steps = [c for c in world._colliders if type(c).__name__ == "Box"]
+    steps = [c for c in world.colliders if type(c).__name__ == "Box"]
     assert len(steps) == 6
     for _ in range(round(2.0 * scene.fps)):
         scene.advance()

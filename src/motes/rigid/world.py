@@ -297,6 +297,8 @@ class World:
     def set_velocity(self, indices, velocity) -> None:
         """Give particles a velocity [m/s] ((3,) or (k, 3)), applied at the next step."""
         idx = np.atleast_1d(np.asarray(indices, dtype=np.int64))
+        if idx.size and (idx.min() < 0 or idx.max() >= self.count):
+            raise ValueError(f"indices must be in [0, {self.count - 1}]")
         v = np.broadcast_to(np.asarray(velocity, dtype=np.float64), (len(idx), 3))
         if not np.all(np.isfinite(v)):
             raise ValueError("velocity must be finite")
@@ -321,6 +323,11 @@ class World:
         if self._h is None:
             return np.zeros((self.count, 3))
         return (self._position - self._previous).T / self._h
+
+    @property
+    def colliders(self) -> tuple:
+        """The colliders, in the order added."""
+        return tuple(self._colliders)
 
     @property
     def bodies(self) -> list[Body]:
