@@ -216,7 +216,7 @@ def rope_bridge(table: Table, context: BuildContext) -> RigidScene:
 @register("pendulums")
 def pendulums(table: Table, context: BuildContext) -> RigidScene:
     """A row of box bobs on V-shaped strings, the first pulled back (Newton's cradle
-    style: the bobs strike each other through body contacts)."""
+    style: the bobs strike each other through body contacts, inelastically)."""
     world = _world(table, context)
     count = table.get("count", integer(1, 20), 5)
     length = table.get("length", positive(), 1.0)
@@ -238,7 +238,8 @@ def pendulums(table: Table, context: BuildContext) -> RigidScene:
             ]
         )
         body = world.add_body(rigid.BodyShape.box(centre, (bob,) * 3, 1.0, rotation=rot))
-        scene.boxes.append((body.index, np.full(3, bob), (0.8, 0.8, 0.85)))
+        tint = (0.8, 0.15, 0.1) if k == 0 else (0.8, 0.8, 0.85)
+        scene.boxes.append((body.index, np.full(3, bob), tint))
         anchors = world.add_particles(
             pivot + np.array([[0, 0, -0.5 * length], [0, 0, 0.5 * length]])
         )
