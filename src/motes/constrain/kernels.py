@@ -28,8 +28,8 @@ replaced by ``(w_i + w_j)(\hat d · ĝ)`` (the constraint's derivative along ``�
 iterated, this converges to SHAKE (Ryckaert, Ciccotti & Berendsen 1977), which with
 position Verlet conserves energy to O(h²) without drift. Projecting along the current
 direction (Jakobsen, PBD) shortens the implied velocity's chord every step: a 60°
-pendulum at h = 1/60 s loses a third of its energy in four seconds. Angle limits always
-use the current direction.
+pendulum at h = 1/60 s loses more than half of its swing energy in four seconds. Angle
+limits always use the current direction.
 
 A hinge side limit (``SIDE``) keeps a joint from bending backwards, which an angle
 limit cannot tell from bending forwards: with the bone ``i -> k`` (thigh) and the hinge
