@@ -113,3 +113,12 @@ def test_rigid_scene_mistakes_name_the_key(kind, extra, path, message):
     with pytest.raises(SceneError, match=message) as error:
         load_scene(SCENE.format(kind=kind, extra=extra))
     assert error.value.path == path
+
+
+def test_a_shared_collider_a_rigid_world_cannot_use_is_a_scene_error():
+    text = SCENE.format(kind="box_tower", extra="") + (
+        '[[collider]]\ntype = "plane"\nresponse = "kill"\n'
+    )
+    with pytest.raises(SceneError, match="response 'bounce' only") as error:
+        load_scene(text)
+    assert error.value.path == "body[0]"

@@ -104,7 +104,7 @@ def _world(table: Table, context: BuildContext) -> rigid.World:
         projection=table.get("projection", one_of("shake", "jakobsen"), "shake"),
     )
     for collider in context.colliders:
-        world.add_collider(collider)
+        build(table.path, world.add_collider, collider)  # errors name the body
     return world
 
 
