@@ -20,7 +20,13 @@ from motes.scene import builtin_scenes, load_scene
 ROOT = Path(__file__).resolve().parent.parent
 #: Where in the run each still is taken (fraction of the frames), where 0.6 misses the
 #: moment that shows the effect.
-STILL_AT = {"explosion": 0.15, "fireworks": 0.5, "curtain": 0.85, "hair": 0.35}
+STILL_AT = {
+    "explosion": 0.15,
+    "fireworks": 0.5,
+    "curtain": 0.85,
+    "hair": 0.35,
+    "ragdoll_stairs": 0.25,
+}
 
 
 def render_scene(name: str, out: Path, *, still_at: float, still_size, gif_size, gif_stride):

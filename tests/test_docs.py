@@ -46,3 +46,10 @@ def test_fluids_guide_examples_run(capsys):
     assert namespace["front"] > 0.15  # the 0.1 m column spread along the tank
     assert len(namespace["pairs"]) > 0
     assert "True" in capsys.readouterr().out
+
+
+def test_rigid_guide_examples_run(capsys):
+    namespace = run_blocks(DOCS / "rigid.md")
+    assert 0.2 < namespace["centre"][0][1] < 2.1  # the resting crate, then the twisted box
+    out = capsys.readouterr().out
+    assert "True" in out and "15 31 True" in out

@@ -9,9 +9,10 @@
 True
 """
 
-from . import colliders, fluids, io, render, scene, shapes, spatial
+from . import colliders, constrain, fluids, io, render, rigid, scene, shapes, spatial
 from .cloth import Airflow, Cloth, Keyframes, SpringFamily
-from .collide import Friction, Response
+from .collide import Capsule, Friction, Response, TriangleMeshCollider
+from .constrain import ConstraintBuilder
 from .emit import (
     Burst,
     Cone,
@@ -67,6 +68,8 @@ from .render.background import Background
 from .render.camera import Camera, Projection
 from .render.renderer import Renderer
 from .render.sprites import SpriteStyle
+from .rigid import BodyShape, add_ragdoll
+from .rigid import World as RigidWorld
 from .scene import Scene, SceneError, load_scene
 from .spatial import UniformGrid
 from .system import ParticleSystem
@@ -78,13 +81,16 @@ __all__ = [
     "AlphaBelow",
     "Attribute",
     "Background",
+    "BodyShape",
     "Burst",
     "CallbackForce",
     "Camera",
+    "Capsule",
     "Cloth",
     "ColorOverLife",
     "Cone",
     "Constant",
+    "ConstraintBuilder",
     "ConstraintFilter",
     "CurlNoise",
     "Curve",
@@ -124,6 +130,7 @@ __all__ = [
     "Rate",
     "Renderer",
     "Response",
+    "RigidWorld",
     "Scene",
     "SceneError",
     "ScreenScaled",
@@ -135,15 +142,19 @@ __all__ = [
     "SpringFamily",
     "Springs",
     "SpriteStyle",
+    "TriangleMeshCollider",
     "Uniform",
     "UniformGrid",
     "Vortex",
     "Wind",
+    "add_ragdoll",
     "colliders",
+    "constrain",
     "fluids",
     "io",
     "load_scene",
     "render",
+    "rigid",
     "scene",
     "shapes",
     "spatial",

@@ -59,7 +59,11 @@ BODY_TYPES: dict[str, Builder] = {}
 
 # Modules that register body types; imported lazily so that loading a scene without
 # bodies does not import (or compile) the solvers.
-_BODY_MODULES: tuple[str, ...] = ("motes.scene.body_cloth", "motes.scene.body_fluids")
+_BODY_MODULES: tuple[str, ...] = (
+    "motes.scene.body_cloth",
+    "motes.scene.body_fluids",
+    "motes.scene.body_rigid",
+)
 
 
 def register(kind: str) -> Callable[[Builder], Builder]:

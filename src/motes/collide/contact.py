@@ -1,0 +1,164 @@
+"""Particles of a rigid world against colliders: packing, and a-posteriori projection.
+
+After the move, a particle of radius r whose signed distance s to a collider is below r
+is projected out along the collider's normal by the depth ``p = r - s`` (Jakobsen 2001,
+§4), and its tangential displacement over the step ``Δ_t`` (from its previous position)
+is reduced by Coulomb friction with the normal impulse estimated from the depth:
+
+.. math:: Δ_t \\leftarrow Δ_t \\left(1 - \\min\\left(1, \\frac{μ p}{|Δ_t|}\\right)\\right),
+
+so a particle sliding slower than ``μ p`` per step stops (static friction) and a faster
+one loses ``μ p`` of its tangential travel (kinetic friction). Detection before the move
+(swept) is in :mod:`.swept`.
+"""
+
+from __future__ import annotations
+
+from enum import StrEnum
+
+import numba
+import numpy as np
+
+from .._jit import block_bounds, block_count, device, parallel_kernel
+from .capsule import Capsule
+from .colliders import Box, Collider, Plane, Response, Sphere
+from .distance import BOX, CAPSULE, MESH, PLANE, SPHERE, mesh_distance, shape_distance
+from .mesh import TriangleMeshCollider
+
+#: Columns of a packed row: kind, friction, restitution, a-priori flag, 15 geometry.
+ROW = 19
+
+
+class Detection(StrEnum):
+    """When collisions with a collider are found."""
+
+    #: After the move: penetrating particles are projected out (misses fast ones).
+    POSTERIORI = "posteriori"
+    #: Before the move as well: the path x -> x' is swept against the shape (planes,
+    #: boxes, triangle meshes), so a fast particle cannot pass through a thin wall.
+    PRIORI = "priori"
+
+
+_SWEPT_KINDS = (Plane, Box, TriangleMeshCollider)
+
+
+def check_collider(collider, detection) -> Detection:
+    """Validate a collider for a rigid world; return its detection mode."""
+    if not isinstance(collider, Collider):
+        raise TypeError(
+            f"collider must be a Plane, Sphere, Box, Capsule or TriangleMeshCollider, "
+            f"got {type(collider).__name__}"
+        )
+    if collider.response != Response.BOUNCE or collider.inside:
+        raise ValueError("rigid worlds support solid colliders with response 'bounce' only")
+    if isinstance(detection, str) and detection in Detection._value2member_map_:
+        detection = Detection(detection)
+    if not isinstance(detection, Detection):
+        raise ValueError(f"detection must be 'posteriori' or 'priori', got {detection!r}")
+    if detection == Detection.PRIORI and not isinstance(collider, _SWEPT_KINDS):
+        raise ValueError(
+            "detection 'priori' is available for Plane, Box and TriangleMeshCollider colliders"
+        )
+    return detection
+
+
+def pack(colliders, detections):
+    """Rows ``(k, ROW)`` float64 and the concatenated mesh data.
+
+    Returns ``table, triangles (t, 9), cell_start, cell_triangles``.
+    """
+    table = np.zeros((len(colliders), ROW))
+    tris = [np.zeros((0, 9))]
+    starts = [np.zeros(1, dtype=np.int64)]
+    lists = [np.zeros(0, dtype=np.int64)]
+    tri_offset = cell_offset = 0
+    for c, (col, det) in enumerate(zip(colliders, detections, strict=True)):
+        row = table[c]
+        row[1] = col.friction
+        row[2] = col.restitution
+        row[3] = det == Detection.PRIORI
+        if isinstance(col, Plane):
+            row[0] = PLANE
+            row[4:8] = [*col.normal, col.offset]
+        elif isinstance(col, Sphere):
+            row[0] = SPHERE
+            row[4:8] = [*col.center, col.radius]
+        elif isinstance(col, Box):
+            row[0] = BOX
+            row[4:19] = [*col.center, *col.half_extent, *col.rotation.T.ravel()]
+        elif isinstance(col, Capsule):
+            row[0] = CAPSULE
+            row[4:11] = [*col.a, *col.b, col.radius]
+        elif isinstance(col, TriangleMeshCollider):
+            row[0] = MESH
+            cells = int(np.prod(col.dims))
+            row[4:13] = [*col.origin, col.cell_size, *col.dims, cell_offset, col.thickness]
+            tris.append(col.triangles)
+            starts.append(col.cell_start[1:] + starts[-1][-1])
+            lists.append(col.cell_triangles + tri_offset)
+            tri_offset += len(col.triangles)
+            cell_offset += cells
+        else:
+            raise TypeError(f"unsupported collider {type(col).__name__}")
+    return (
+        table,
+        np.ascontiguousarray(np.concatenate(tris)),
+        np.concatenate(starts).astype(np.int64),
+        np.concatenate(lists).astype(np.int64),
+    )
+
+
+@device
+def collider_distance(table, c, tri, cell_start, cell_tris, px, py, pz, qx, qy, qz, reach):
+    kind = int(table[c, 0])
+    if kind == MESH:
+        return mesh_distance(table[c], tri, cell_start, cell_tris, px, py, pz, qx, qy, qz, reach)
+    return shape_distance(kind, table[c], px, py, pz)
+
+
+@parallel_kernel
+def project_contacts(
+    px, py, pz, qx, qy, qz, radius, inv_mass, table, tri, cell_start, cell_tris, hits
+):
+    """Project every movable particle out of every collider, with depth friction.
+
+    ``q`` are the positions at the start of the step; ``hits`` (n,) counts contacts.
+    """
+    n = px.shape[0]
+    for b in numba.prange(block_count(n)):
+        start, stop = block_bounds(b, n)
+        for p in range(start, stop):
+            if inv_mass[p] <= 0.0:
+                continue
+            r = radius[p]
+            for c in range(table.shape[0]):
+                s, nx, ny, nz = collider_distance(
+                    table,
+                    c,
+                    tri,
+                    cell_start,
+                    cell_tris,
+                    px[p],
+                    py[p],
+                    pz[p],
+                    qx[p],
+                    qy[p],
+                    qz[p],
+                    r,
+                )
+                depth = r - s
+                if depth <= 0.0:
+                    continue
+                hits[p] += 1
+                x = px[p] + depth * nx
+                y = py[p] + depth * ny
+                z = pz[p] + depth * nz
+                # Tangential travel over the step, reduced by mu * depth (Coulomb).
+                dx, dy, dz = x - qx[p], y - qy[p], z - qz[p]
+                dn = dx * nx + dy * ny + dz * nz
+                tx, ty, tz = dx - dn * nx, dy - dn * ny, dz - dn * nz
+                t = np.sqrt(tx * tx + ty * ty + tz * tz)
+                cut = min(1.0, table[c, 1] * depth / t) if t > 0.0 else 0.0
+                px[p] = x - cut * tx
+                py[p] = y - cut * ty
+                pz[p] = z - cut * tz

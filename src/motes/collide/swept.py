@@ -1,0 +1,174 @@
+"""A-priori (swept) detection: the straight path x -> x' of each particle is tested
+against planes, oriented boxes and triangles before the constraints relax it.
+
+A particle's path over a step is the segment from its previous position ``q`` to its
+predicted position ``x``. The earliest hit ``q + t (x - q)``, t in [0, 1], against any
+a-priori collider stops the particle there (shifted out along the normal by its radius
+and a small gap), and its velocity is reflected with the collider's restitution ``e``
+(the previous position is rewritten so that ``(x - q)/h`` is the reflected velocity).
+Shapes are grown by the particle radius: exact for planes; for boxes the grown box is
+the slab intersection (square corners, conservative); triangles are thin (their shell
+thickness and the radius shift the stopping point only).
+
+Tests: the slab method (Kay & Kajiya 1986) for boxes, the signed distances of the ends
+for planes, Möller & Trumbore (1997) for triangles.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .._jit import block_bounds, block_count, device, parallel_kernel, serial_kernel
+from .distance import BOX, MESH, PLANE, G, triangle_normal
+
+#: Gap left between a stopped particle and the surface [m] (keeps it on the free side
+#: after round-off).
+GAP = 1e-6
+
+
+@device
+def _segment_triangle(ax, ay, az, dx, dy, dz, tri, t):
+    """Fraction along a + s d where the segment crosses triangle t, or inf."""
+    e1x, e1y, e1z = tri[t, 3] - tri[t, 0], tri[t, 4] - tri[t, 1], tri[t, 5] - tri[t, 2]
+    e2x, e2y, e2z = tri[t, 6] - tri[t, 0], tri[t, 7] - tri[t, 1], tri[t, 8] - tri[t, 2]
+    hx = dy * e2z - dz * e2y
+    hy = dz * e2x - dx * e2z
+    hz = dx * e2y - dy * e2x
+    det = e1x * hx + e1y * hy + e1z * hz
+    if abs(det) < 1e-300:
+        return np.inf
+    f = 1.0 / det
+    sx, sy, sz = ax - tri[t, 0], ay - tri[t, 1], az - tri[t, 2]
+    u = f * (sx * hx + sy * hy + sz * hz)
+    if u < 0.0 or u > 1.0:
+        return np.inf
+    qx = sy * e1z - sz * e1y
+    qy = sz * e1x - sx * e1z
+    qz = sx * e1y - sy * e1x
+    v = f * (dx * qx + dy * qy + dz * qz)
+    if v < 0.0 or u + v > 1.0:
+        return np.inf
+    s = f * (e2x * qx + e2y * qy + e2z * qz)
+    if s < 0.0 or s > 1.0:
+        return np.inf
+    return s
+
+
+@serial_kernel
+def _sweep_one(row, tri, cell_start, cell_tris, ax, ay, az, dx, dy, dz, r):
+    """Earliest hit (fraction, normal, stand-off) of the segment a -> a + d, or inf."""
+    kind = int(row[0])
+    if kind == PLANE:
+        nx, ny, nz = row[G], row[G + 1], row[G + 2]
+        s0 = ax * nx + ay * ny + az * nz - row[G + 3] - r
+        s1 = s0 + dx * nx + dy * ny + dz * nz
+        if s0 >= 0.0 and s1 < 0.0:
+            return s0 / (s0 - s1), nx, ny, nz, 0.0
+        return np.inf, 0.0, 0.0, 0.0, 0.0
+    if kind == BOX:
+        # Slabs of the box grown by r, in its own axes.
+        enter = -np.inf
+        leave = np.inf
+        fx = fy = fz = 0.0
+        for a in range(3):
+            ux, uy, uz = row[G + 6 + 3 * a], row[G + 7 + 3 * a], row[G + 8 + 3 * a]
+            o = (ax - row[G]) * ux + (ay - row[G + 1]) * uy + (az - row[G + 2]) * uz
+            v = dx * ux + dy * uy + dz * uz
+            h = row[G + 3 + a] + r
+            if v == 0.0:
+                if abs(o) > h:
+                    return np.inf, 0.0, 0.0, 0.0, 0.0
+                continue
+            t0 = (-h - o) / v
+            t1 = (h - o) / v
+            sign = -1.0
+            if t0 > t1:
+                t0, t1 = t1, t0
+                sign = 1.0
+            if t0 > enter:
+                enter = t0
+                fx, fy, fz = sign * ux, sign * uy, sign * uz
+            leave = min(leave, t1)
+        if enter <= leave and 0.0 <= enter <= 1.0:
+            return enter, fx, fy, fz, 0.0
+        return np.inf, 0.0, 0.0, 0.0, 0.0
+    if kind == MESH:
+        ox, oy, oz, cell = row[G], row[G + 1], row[G + 2], row[G + 3]
+        n0, n1, n2 = int(row[G + 4]), int(row[G + 5]), int(row[G + 6])
+        offset = int(row[G + 7])
+        grow = r + row[G + 8]
+        lo = np.empty(3, dtype=np.int64)
+        hi = np.empty(3, dtype=np.int64)
+        dims = (n0, n1, n2)
+        base = (ox, oy, oz)
+        start = (ax, ay, az)
+        step = (dx, dy, dz)
+        for a in range(3):
+            low = min(start[a], start[a] + step[a]) - grow
+            high = max(start[a], start[a] + step[a]) + grow
+            lo[a] = min(max(int(np.floor((low - base[a]) / cell)), 0), dims[a] - 1)
+            hi[a] = min(max(int(np.floor((high - base[a]) / cell)), 0), dims[a] - 1)
+        best = np.inf
+        bt = -1
+        for i in range(lo[0], hi[0] + 1):
+            for j in range(lo[1], hi[1] + 1):
+                for k in range(lo[2], hi[2] + 1):
+                    c = offset + (i * n1 + j) * n2 + k
+                    for e in range(cell_start[c], cell_start[c + 1]):
+                        s = _segment_triangle(ax, ay, az, dx, dy, dz, tri, cell_tris[e])
+                        if s < best:
+                            best = s
+                            bt = cell_tris[e]
+        if bt < 0:
+            return np.inf, 0.0, 0.0, 0.0, 0.0
+        nx, ny, nz = triangle_normal(tri, bt)
+        if nx * dx + ny * dy + nz * dz > 0.0:  # face the side the particle came from
+            nx, ny, nz = -nx, -ny, -nz
+        return best, nx, ny, nz, grow
+    return np.inf, 0.0, 0.0, 0.0, 0.0
+
+
+@parallel_kernel
+def sweep_contacts(
+    px, py, pz, qx, qy, qz, radius, inv_mass, table, tri, cell_start, cell_tris, hits
+):
+    """Stop each movable particle at its path's first a-priori hit; reflect its velocity.
+
+    ``q`` (previous positions) -> ``p`` (predicted) is the path; both are rewritten
+    for particles that hit. ``hits`` (n,) counts the hits.
+    """
+    n = px.shape[0]
+    for b in numba.prange(block_count(n)):
+        start, stop = block_bounds(b, n)
+        for p in range(start, stop):
+            if inv_mass[p] <= 0.0:
+                continue
+            ax, ay, az = qx[p], qy[p], qz[p]
+            dx, dy, dz = px[p] - ax, py[p] - ay, pz[p] - az
+            best = np.inf
+            bc = -1
+            bx = by = bz = off = 0.0
+            for c in range(table.shape[0]):
+                if table[c, 3] == 0.0:
+                    continue
+                t, nx, ny, nz, o = _sweep_one(
+                    table[c], tri, cell_start, cell_tris, ax, ay, az, dx, dy, dz, radius[p]
+                )
+                if t < best:
+                    best, bc, bx, by, bz, off = t, c, nx, ny, nz, o
+            if bc < 0:
+                continue
+            hits[p] += 1
+            stand = off + GAP
+            x = ax + best * dx + stand * bx
+            y = ay + best * dy + stand * by
+            z = az + best * dz + stand * bz
+            # Reflect the step's displacement: tangential kept, normal times -e.
+            dn = dx * bx + dy * by + dz * bz
+            e = table[bc, 2]
+            vx = dx - (1.0 + e) * dn * bx
+            vy = dy - (1.0 + e) * dn * by
+            vz = dz - (1.0 + e) * dn * bz
+            px[p], py[p], pz[p] = x, y, z
+            qx[p], qy[p], qz[p] = x - vx, y - vy, z - vz
