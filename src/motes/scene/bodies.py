@@ -63,6 +63,7 @@ _BODY_MODULES: tuple[str, ...] = (
     "motes.scene.body_cloth",
     "motes.scene.body_fluids",
     "motes.scene.body_rigid",
+    "motes.scene.body_rigid_world",
 )
 
 
