@@ -44,6 +44,15 @@ def wall_fraction(d, h):
     return cumulative[-1] - np.interp(u, z, cumulative)
 
 
+def wall_share(d, spacing, h, scale):
+    """The rest lattice's planes beyond a wall, each smeared over its area: the share of
+    the kernel (a fraction of δ₀) and its derivative in d, summed plane by plane."""
+    u0 = np.clip(np.asarray(d, float), 0, None)[..., None] + (np.arange(40) + 0.5) * spacing
+    a = np.clip(1 - (u0 / h) ** 2, 0, None) * (u0 < h)
+    c = scale * 315 / (256 * h) * spacing
+    return c * (a**4).sum(-1), c * (-8 * u0 / h**2 * a**3).sum(-1)
+
+
 # -- boundaries ---------------------------------------------------------------------------
 def signed_distance(row, p):
     """(d, n) of points p (m, 3) to one packed boundary row."""
@@ -69,14 +78,15 @@ def signed_distance(row, p):
     return sign * (r - c), sign * rel / r[:, None]
 
 
-def walls(rows, p, h):
+def walls(rows, p, h, spacing, scale):
     """Free kernel share Q = Π(1 - f_b) and ∇(1 - Q) (m, 3), by the product rule."""
     fs, grads = [], []
     for row in rows:
         d, n = signed_distance(row, p)
         near = d < h
-        f = np.where(near, wall_fraction(d, h), 0.0)
-        slope = np.where(near, -315 / (256 * h) * (1 - np.clip(d / h, 0, 1) ** 2) ** 4, 0.0)
+        share, share_slope = wall_share(d, spacing, h, scale)
+        f = np.where(near, share, 0.0)
+        slope = np.where(near, share_slope, 0.0)
         fs.append(f)
         grads.append(slope[:, None] * n)
     free = np.prod([1 - f for f in fs], axis=0) if fs else np.ones(len(p))
@@ -96,10 +106,10 @@ def pairs_within(p, h):
     return rel, r, near
 
 
-def density_lambda(p, weight, rows, h, delta0, eps):
+def density_lambda(p, weight, rows, h, spacing, scale, delta0, eps):
     rel, r, near = pairs_within(p, h)
     delta = poly6(0.0, h) + np.where(near, poly6(r, h), 0).sum(axis=1)
-    free, wall_grad = walls(rows, p, h)
+    free, wall_grad = walls(rows, p, h, spacing, scale)
     delta = delta + delta0 * (1 - free)
     g = np.where(near, spiky_grad_scale(r, h), 0)[..., None] * rel / delta0
     own = g.sum(axis=1) + wall_grad
@@ -120,12 +130,12 @@ def project(p, rows, radius):
     return p, deepest
 
 
-def correction(p, weight, lam, rows, h, delta0, k_corr, inv_wq):
+def correction(p, weight, lam, rows, h, spacing, scale, delta0, k_corr, inv_wq):
     rel, r, near = pairs_within(p, h)
     scorr = k_corr * (poly6(r, h) * inv_wq) ** 4
     coef = np.where(near, (lam[:, None] + lam[None, :] - scorr) * spiky_grad_scale(r, h), 0)
     dp = (coef[..., None] * rel).sum(axis=1) * (weight / delta0)[:, None]
-    _, wall_grad = walls(rows, p, h)
+    _, wall_grad = walls(rows, p, h, spacing, scale)
     return dp + (weight * lam)[:, None] * wall_grad
 
 

@@ -99,7 +99,7 @@ def test_a_tank_at_rest_has_hydrostatic_pressure():
     depth_total, s = 0.4, 0.025
     model = FluidModel(spacing=s, xsph=0.1, boundaries=(Tank((0, 0, 0), (0.2, 1, 0.2)),))
     water = Fluid(model, lattice((0, 0, 0), (0.2, depth_total, 0.2), s))
-    for _ in range(120):
+    for _ in range(180):  # 1.5 s: the last surface particles still rock at 1 s
         water.step(1 / 120)
     assert np.abs(water.velocities).max() < 0.1  # settled: 1 % of the free-fall speed
     p = water.positions
@@ -122,11 +122,16 @@ def test_a_tank_at_rest_has_hydrostatic_pressure():
 def test_small_dam_break_follows_martin_and_moyce():
     from benchmarks.dam_break import run
 
-    result = run(resolution=8, quick=True)
-    # 8 particles across the column (the benchmark uses 20): measured 10 % here and 14.5 %
-    # at 20 across (the front runs ahead of the experiment, more at finer resolution);
-    # the bound leaves room for the round-off of other machines, not for a broken solver.
-    assert result["max_rel_dev"] < 0.2
+    result = run(resolution=12, quick=True)
+    # The column at rest reads its own width (the edge level is the rest lattice's).
+    assert result["front_at_release"] == pytest.approx(1.0, abs=0.01)
+    # 12 particles across (the benchmark uses 20): the leading edge measured 12.5 % from
+    # T = 0.8 on (6.9 % at 20 across, 8.3 % at 30; at 12 the late surge is a tongue
+    # thinner than a kernel radius and the smoothed edge lags), 6.2 % on average. The
+    # bounds leave room for other machines' round-off (a collapse amplifies it: a few %),
+    # not for a broken solver.
+    assert result["max_rel_dev"] < 0.17
+    assert result["mean_rel_dev"] < 0.09
     assert result["mean_density_error"] < 0.02
 
 

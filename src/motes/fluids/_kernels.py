@@ -36,7 +36,7 @@ from .boundaries import (
     SIGN,
     C,
 )
-from .sph import poly6, spiky, spiky_gradient_scale, wall_fraction, wall_fraction_slope
+from .sph import poly6, spiky, spiky_gradient_scale, wall_share
 
 #: Akinci et al. 2013, eq. 2: cohesion spline normalisation, 32 / π.
 COHESION = 32.0 / math.pi
@@ -86,10 +86,11 @@ def signed_distance(rows, b, x, y, z):
 
 
 @boundary_function
-def walls(rows, x, y, z, h):
+def walls(rows, x, y, z, h, spacing, scale):
     """The part of a particle's kernel that lies inside the walls, and its gradient.
 
-    Each wall alone takes :func:`wall_fraction` ``f_b`` of the kernel. Several walls (a
+    Each wall alone takes :func:`wall_share` ``f_b`` of the kernel (``spacing`` [m] and
+    ``scale`` [-] as there). Several walls (a
     tank's edge or corner) overlap; treating them as independent, the kernel left free
     is ``Q = Π_b (1 - f_b)``, exact for one wall and at a tank's corner (1/8 free) and
     within a few % between. Returns ``Q`` and ``∇(1 - Q)`` [1/m].
@@ -99,8 +100,7 @@ def walls(rows, x, y, z, h):
     for b in range(rows.shape[0]):
         d, nx, ny, nz = signed_distance(rows, b, x, y, z)
         if d < h:
-            f = wall_fraction(d, h)
-            slope = wall_fraction_slope(d, h)
+            f, slope = wall_share(d, spacing, h, scale)
             # ∇(1 - Q·(1 - f)) = (1 - f) ∇(1 - Q) + Q f' n.
             gx = (1.0 - f) * gx + free * slope * nx
             gy = (1.0 - f) * gy + free * slope * ny
@@ -144,7 +144,9 @@ def project(px, py, pz, rows, radius, depth):
 
 
 @parallel_kernel
-def density_lambda(px, py, pz, offsets, nbr, weight, rows, h, inv_delta0, eps, delta, lam):
+def density_lambda(
+    px, py, pz, offsets, nbr, weight, rows, h, spacing, wall_scale, inv_delta0, eps, delta, lam
+):
     """Number density and the Lagrange multiplier of each density constraint.
 
     Macklin & Müller 2013, eqs. 1-11, with the constraint ``C_i = δ_i / δ₀ - 1`` on the
@@ -172,7 +174,7 @@ def density_lambda(px, py, pz, offsets, nbr, weight, rows, h, inv_delta0, eps, d
                 gy += s * ry
                 gz += s * rz
                 sum_g2 += weight[j] * s * s * r2
-            free, wx, wy, wz = walls(rows, xi, yi, zi, h)
+            free, wx, wy, wz = walls(rows, xi, yi, zi, h, spacing, wall_scale)
             density += (1.0 - free) / inv_delta0
             gx += wx
             gy += wy
@@ -184,8 +186,9 @@ def density_lambda(px, py, pz, offsets, nbr, weight, rows, h, inv_delta0, eps, d
 
 @parallel_kernel
 def correction(
-    px, py, pz, offsets, nbr, weight, lam, rows, h, inv_delta0, k_corr, inv_wq, radius, out
-):
+    px, py, pz, offsets, nbr, weight, lam, rows, h, spacing, wall_scale, inv_delta0, k_corr,
+    inv_wq, radius, out,
+):  # fmt: skip
     """Corrected positions ``p_i + Δp_i`` [m] (Macklin & Müller 2013, eqs. 12-14), pushed
     out of the boundaries to ``radius`` [m]; ``out`` has shape (3, n).
 
@@ -215,7 +218,7 @@ def correction(
             ax *= wi * inv_delta0
             ay *= wi * inv_delta0
             az *= wi * inv_delta0
-            _, wx, wy, wz = walls(rows, xi, yi, zi, h)
+            _, wx, wy, wz = walls(rows, xi, yi, zi, h, spacing, wall_scale)
             ax += wi * li * wx
             ay += wi * li * wy
             az += wi * li * wz

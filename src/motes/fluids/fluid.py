@@ -234,11 +234,12 @@ class Fluid:
         inv_delta0 = 1.0 / d["delta0"]
         for _ in range(m.iterations):
             _kernels.density_lambda(
-                *predicted, offsets, nbr, weight, rows, h, inv_delta0, d["eps"], delta, lam
-            )
+                *predicted, offsets, nbr, weight, rows, h, m.spacing, d["wall_scale"],
+                inv_delta0, d["eps"], delta, lam,
+            )  # fmt: skip
             _kernels.correction(
-                *predicted, offsets, nbr, weight, lam, rows, h, inv_delta0,
-                d["tensile_k"], d["inv_wq"], radius, spare,
+                *predicted, offsets, nbr, weight, lam, rows, h, m.spacing, d["wall_scale"],
+                inv_delta0, d["tensile_k"], d["inv_wq"], radius, spare,
             )  # fmt: skip
             predicted, spare = spare, predicted
             lam_sum += lam

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import _validate
 from . import boundaries as _boundaries
-from .sph import SPIKY_GRAD, lattice_number_density
+from .sph import SPIKY_GRAD, lattice_number_density, wall_scale
 
 
 @dataclass(frozen=True)
@@ -157,6 +157,7 @@ class FluidModel:
         return {
             "h": h,
             "delta0": delta0,
+            "wall_scale": wall_scale(s, h),
             "eps": self.relaxation * stiffness,
             "tensile_k": self.tensile / stiffness,
             "inv_wq": 1.0 / w_dq,
