@@ -190,3 +190,22 @@ def momentum_exchange_pairs(p, v, mass, k, sigma, h, dt):
                     k * np.exp(-(d**2) / (2 * sigma**2)) * dt * (mass[j] * v[j] - mass[i] * v[i])
                 )
     return out / mass[:, None]
+
+
+def vorticity(p, v, delta, h):
+    """ω_i = Σ_j ∇_i W_ij × (v_j - v_i) / δ_j, spiky gradients (Macklin & Müller eq. 15)."""
+    rel, r, near = pairs_within(p, h)
+    g = np.where(near, spiky_grad_scale(r, h), 0.0) / delta[None, :]
+    dv = v[None, :, :] - v[:, None, :]
+    return (g[..., None] * np.cross(rel, dv)).sum(axis=1)
+
+
+def confinement(p, v, delta, omega, h, scale):
+    """v + scale · N × ω, N = η/|η|, η_i = Σ_j (|ω_j| - |ω_i|) ∇_i W_ij / δ_j."""
+    rel, r, near = pairs_within(p, h)
+    g = np.where(near, spiky_grad_scale(r, h), 0.0) / delta[None, :]
+    mag = np.linalg.norm(omega, axis=1)
+    eta = (g[..., None] * (mag[None, :] - mag[:, None])[..., None] * rel).sum(axis=1)
+    length = np.linalg.norm(eta, axis=1, keepdims=True)
+    normal = np.divide(eta, length, out=np.zeros_like(eta), where=length > 0)
+    return v + scale * np.cross(normal, omega)

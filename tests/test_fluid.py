@@ -249,3 +249,45 @@ def test_wall_friction_slows_a_sliding_block(model):
     free = slide(0.0)
     assert free == pytest.approx(1.0, abs=0.02)  # nothing to slow it without friction
     assert slide(0.5) < 0.9 * free
+
+
+def spinning_blob(vorticity: float) -> Fluid:
+    """A ball of water in free space turning as a decaying vortex (viscosity on)."""
+    s = 0.02
+    model = FluidModel(spacing=s, gravity=(0, 0, 0), viscosity=10.0, vorticity=vorticity)
+    p = lattice((-0.1, -0.1, -0.1), (0.1, 0.1, 0.1), s)
+    p = p[:, (p * p).sum(axis=0) < 0.1**2]
+    radial = (p[0] ** 2 + p[1] ** 2) / 0.05**2
+    swirl = 3.0 * np.exp(-radial)  # [rad/s], a Gaussian vortex core about the y axis
+    velocities = np.stack([-p[2] * swirl, np.zeros_like(swirl), p[0] * swirl])
+    return Fluid(model, p, velocities=velocities)
+
+
+def test_vorticity_confinement_puts_energy_back_into_a_decaying_vortex():
+    def kinetic(fluid):
+        return 0.5 * float((fluid.masses * (fluid.velocities.astype(float) ** 2).sum(0)).sum())
+
+    runs = {}
+    for eps in (0.0, 30.0):
+        blob = spinning_blob(eps)
+        start = kinetic(blob)
+        for _ in range(20):
+            blob.step(1 / 60)
+        runs[eps] = kinetic(blob) / start
+    # Viscosity takes energy out (measured: 3.9 % left after 1/3 s); confinement
+    # returns part of it (19.5 % left at ε = 30 /s).
+    assert runs[0.0] < 0.1
+    assert runs[30.0] > 2 * runs[0.0]
+    # Off by default and off at 0: the same step, bit for bit.
+    zero = spinning_blob(0.0)
+    assert FluidModel(spacing=0.02).vorticity == 0.0
+    default = Fluid(
+        FluidModel(spacing=0.02, gravity=(0, 0, 0), viscosity=10.0),
+        zero.positions.copy(),
+        velocities=zero.velocities.copy(),
+    )
+    for _ in range(3):
+        zero.step(1 / 60)
+        default.step(1 / 60)
+    assert_array_equal(zero.positions, default.positions)
+    assert_array_equal(zero.velocities, default.velocities)

@@ -449,3 +449,63 @@ def cell_density(sx, sy, sz, cell_start, origin, inv_cell, dims, h, out):
                         d = max(np.float32(h2) - (dx * dx + dy * dy + dz * dz), np.float32(0.0))
                         total += d * d * d
             out[q] = total * np.float32(poly6(0.0, h) / h**6)
+
+
+@parallel_kernel
+def vorticity(px, py, pz, vx, vy, vz, offsets, nbr, delta, h, out):
+    """Vorticity ``ω_i = Σ_j V_j ∇_i W_ij × (v_j - v_i)`` [1/s] (Macklin & Müller 2013,
+    eq. 15, with the volume ``V_j = 1 / δ_j``: the SPH curl, exact to the kernel's
+    discretisation for a rigid rotation, ``ω = 2Ω``); spiky gradients, ``out`` (3, n).
+    """
+    n = px.shape[0]
+    for block in prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            xi, yi, zi = px[i], py[i], pz[i]
+            ui, wi, si = vx[i], vy[i], vz[i]
+            ax = ay = az = 0.0
+            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
+                j = nbr[k]
+                rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
+                g = spiky_gradient_scale(math.sqrt(rx * rx + ry * ry + rz * rz), h) / delta[j]
+                du, dv, dw = vx[j] - ui, vy[j] - wi, vz[j] - si
+                ax += g * (ry * dw - rz * dv)
+                ay += g * (rz * du - rx * dw)
+                az += g * (rx * dv - ry * du)
+            out[0, i] = ax
+            out[1, i] = ay
+            out[2, i] = az
+
+
+@parallel_kernel
+def confinement(px, py, pz, vx, vy, vz, offsets, nbr, delta, omega, h, scale, out):
+    """Velocities after vorticity confinement (Fedkiw, Stam & Jensen 2001, eqs. 9-11, as
+    Macklin & Müller 2013, eq. 16 use it): ``v_i + scale (N_i × ω_i)`` with
+    ``N = η / |η|``, ``η_i = Σ_j V_j (|ω_j| - |ω_i|) ∇_i W_ij`` (the SPH gradient of
+    ``|ω|``, pointing toward the vortex cores) and ``scale = Δt ε spacing`` [m].
+    ``out`` (3, n) must not alias the velocities.
+    """
+    n = px.shape[0]
+    for block in prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            xi, yi, zi = px[i], py[i], pz[i]
+            oi = math.sqrt(omega[0, i] ** 2 + omega[1, i] ** 2 + omega[2, i] ** 2)
+            ex = ey = ez = 0.0
+            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
+                j = nbr[k]
+                rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
+                g = spiky_gradient_scale(math.sqrt(rx * rx + ry * ry + rz * rz), h) / delta[j]
+                oj = math.sqrt(omega[0, j] ** 2 + omega[1, j] ** 2 + omega[2, j] ** 2)
+                ex += g * (oj - oi) * rx
+                ey += g * (oj - oi) * ry
+                ez += g * (oj - oi) * rz
+            length = math.sqrt(ex * ex + ey * ey + ez * ez)
+            fx = fy = fz = 0.0
+            if length > 0.0:  # a flat |ω| has no direction to confine toward
+                ex, ey, ez = ex / length, ey / length, ez / length
+                wx, wy, wz = omega[0, i], omega[1, i], omega[2, i]
+                fx, fy, fz = ey * wz - ez * wy, ez * wx - ex * wz, ex * wy - ey * wx
+            out[0, i] = vx[i] + scale * fx
+            out[1, i] = vy[i] + scale * fy
+            out[2, i] = vz[i] + scale * fz

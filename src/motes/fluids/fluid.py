@@ -260,6 +260,15 @@ class Fluid:
         coefficients = np.array(
             [h, dt, m.xsph, m.viscosity, 1.0 / (2.0 * sigma * sigma), m.repulsion, d["delta0"]]
         )
+        if m.vorticity > 0:
+            omega = np.empty((3, n), np.float32)
+            _kernels.vorticity(*s.positions, *s.velocities, offsets, nbr, delta, h, omega)
+            confined = np.empty_like(s.velocities)
+            _kernels.confinement(
+                *s.positions, *s.velocities, offsets, nbr, delta, omega, h,
+                dt * m.vorticity * m.spacing, confined,
+            )  # fmt: skip
+            s.velocities = confined
         normals = np.zeros((3, n), np.float32)
         if d["cohesion"].max() > 0:
             _kernels.surface_normals(*s.positions, offsets, nbr, s.phase, delta, h, normals)
