@@ -152,7 +152,9 @@ def test_two_phases_separate_heavy_below_light(rng):
 
 
 def test_deterministic_and_thread_count_independent(rng):
-    model = FluidModel(spacing=0.02, viscosity=5.0, boundaries=(Tank((0, 0, 0), (0.6, 1, 0.3)),))
+    model = FluidModel(
+        spacing=0.02, viscosity=5.0, vorticity=10.0, boundaries=(Tank((0, 0, 0), (0.6, 1, 0.3)),)
+    )
     pos = lattice((0, 0, 0), (0.3, 0.3, 0.3), 0.02)  # 3375 particles: several blocks
 
     def run(threads):
@@ -182,6 +184,7 @@ def test_deterministic_and_thread_count_independent(rng):
         ({"iterations": 0}, "iterations must be >= 1"),
         ({"xsph": 2}, "xsph must be <= 1"),
         ({"viscosity": -1}, "viscosity must be >= 0"),
+        ({"vorticity": -1}, "vorticity must be >= 0"),
         ({"viscosity": 30}, r"viscosity must be <= 22.53 1/s at max_dt"),
         ({"phases": ()}, "phases must be a non-empty"),
         ({"boundaries": ("floor",)}, "boundaries must hold"),
