@@ -2,7 +2,7 @@
 
 Run from the repository root::
 
-    PYTHONPATH=src python -m benchmarks.dam_break           # 20 particles across, ~1 min
+    PYTHONPATH=src python -m benchmarks.dam_break           # 20 particles across, ~5 s
     PYTHONPATH=src python -m benchmarks.dam_break --quick   # 10 across, seconds
 
 A water column of width a = 0.05715 m and height 2a (the experiment's) stands at the
@@ -11,11 +11,11 @@ back wall of a tank 6a long, held by a gate (a wall at x = a) while it settles f
 leading edge along the floor, where the kernel-smoothed volume fraction falls to the
 level a resting block has at its own edge (:func:`surge_front`; the furthest particle
 is reported too, but it is a drop thrown ahead of the surge more often than not). The
-flow is two-dimensional: a slab four
-particles thick between frictionless walls in z (a thin 3D slab, the same solver as
-every 3D scene: the z walls stand for the symmetry planes of a wide channel). The floor
-is no-slip (the particles touching it lose their tangential velocity each step); the
-end walls slip.
+flow is two-dimensional: a slab four particles thick between frictionless walls in z (a
+thin 3D slab, the same solver as every 3D scene: the z walls stand for the symmetry
+planes of a wide channel). The floor is no-slip (the particles touching it lose their
+tangential velocity each step); the end walls slip. docs/fluids.md ("The dam break,
+examined") has the figures at 10 to 40 particles across and what they show.
 
 It prints the table of Z = z/a against T = t sqrt(2g/a) beside the experiment (linear
 interpolation of the simulated front at the experiment's times), then one line of JSON:
