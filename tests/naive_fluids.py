@@ -44,6 +44,15 @@ def wall_fraction(d, h):
     return cumulative[-1] - np.interp(u, z, cumulative)
 
 
+def wall_share(d, spacing, h, scale):
+    """The rest lattice's planes beyond a wall, each smeared over its area: the share of
+    the kernel (a fraction of δ₀) and its derivative in d, summed plane by plane."""
+    u0 = np.clip(np.asarray(d, float), 0, None)[..., None] + (np.arange(40) + 0.5) * spacing
+    a = np.clip(1 - (u0 / h) ** 2, 0, None) * (u0 < h)
+    c = scale * 315 / (256 * h) * spacing
+    return c * (a**4).sum(-1), c * (-8 * u0 / h**2 * a**3).sum(-1)
+
+
 # -- boundaries ---------------------------------------------------------------------------
 def signed_distance(row, p):
     """(d, n) of points p (m, 3) to one packed boundary row."""
@@ -69,14 +78,15 @@ def signed_distance(row, p):
     return sign * (r - c), sign * rel / r[:, None]
 
 
-def walls(rows, p, h):
+def walls(rows, p, h, spacing, scale):
     """Free kernel share Q = Π(1 - f_b) and ∇(1 - Q) (m, 3), by the product rule."""
     fs, grads = [], []
     for row in rows:
         d, n = signed_distance(row, p)
         near = d < h
-        f = np.where(near, wall_fraction(d, h), 0.0)
-        slope = np.where(near, -315 / (256 * h) * (1 - np.clip(d / h, 0, 1) ** 2) ** 4, 0.0)
+        share, share_slope = wall_share(d, spacing, h, scale)
+        f = np.where(near, share, 0.0)
+        slope = np.where(near, share_slope, 0.0)
         fs.append(f)
         grads.append(slope[:, None] * n)
     free = np.prod([1 - f for f in fs], axis=0) if fs else np.ones(len(p))
@@ -96,10 +106,10 @@ def pairs_within(p, h):
     return rel, r, near
 
 
-def density_lambda(p, weight, rows, h, delta0, eps):
+def density_lambda(p, weight, rows, h, spacing, scale, delta0, eps):
     rel, r, near = pairs_within(p, h)
     delta = poly6(0.0, h) + np.where(near, poly6(r, h), 0).sum(axis=1)
-    free, wall_grad = walls(rows, p, h)
+    free, wall_grad = walls(rows, p, h, spacing, scale)
     delta = delta + delta0 * (1 - free)
     g = np.where(near, spiky_grad_scale(r, h), 0)[..., None] * rel / delta0
     own = g.sum(axis=1) + wall_grad
@@ -120,12 +130,12 @@ def project(p, rows, radius):
     return p, deepest
 
 
-def correction(p, weight, lam, rows, h, delta0, k_corr, inv_wq):
+def correction(p, weight, lam, rows, h, spacing, scale, delta0, k_corr, inv_wq):
     rel, r, near = pairs_within(p, h)
     scorr = k_corr * (poly6(r, h) * inv_wq) ** 4
     coef = np.where(near, (lam[:, None] + lam[None, :] - scorr) * spiky_grad_scale(r, h), 0)
     dp = (coef[..., None] * rel).sum(axis=1) * (weight / delta0)[:, None]
-    _, wall_grad = walls(rows, p, h)
+    _, wall_grad = walls(rows, p, h, spacing, scale)
     return dp + (weight * lam)[:, None] * wall_grad
 
 
@@ -180,3 +190,22 @@ def momentum_exchange_pairs(p, v, mass, k, sigma, h, dt):
                     k * np.exp(-(d**2) / (2 * sigma**2)) * dt * (mass[j] * v[j] - mass[i] * v[i])
                 )
     return out / mass[:, None]
+
+
+def vorticity(p, v, delta, h):
+    """ω_i = Σ_j ∇_i W_ij × (v_j - v_i) / δ_j, spiky gradients (Macklin & Müller eq. 15)."""
+    rel, r, near = pairs_within(p, h)
+    g = np.where(near, spiky_grad_scale(r, h), 0.0) / delta[None, :]
+    dv = v[None, :, :] - v[:, None, :]
+    return (g[..., None] * np.cross(rel, dv)).sum(axis=1)
+
+
+def confinement(p, v, delta, omega, h, scale):
+    """v + scale · N × ω, N = η/|η|, η_i = Σ_j (|ω_j| - |ω_i|) ∇_i W_ij / δ_j."""
+    rel, r, near = pairs_within(p, h)
+    g = np.where(near, spiky_grad_scale(r, h), 0.0) / delta[None, :]
+    mag = np.linalg.norm(omega, axis=1)
+    eta = (g[..., None] * (mag[None, :] - mag[:, None])[..., None] * rel).sum(axis=1)
+    length = np.linalg.norm(eta, axis=1, keepdims=True)
+    normal = np.divide(eta, length, out=np.zeros_like(eta), where=length > 0)
+    return v + scale * np.cross(normal, omega)

@@ -99,7 +99,7 @@ def test_a_tank_at_rest_has_hydrostatic_pressure():
     depth_total, s = 0.4, 0.025
     model = FluidModel(spacing=s, xsph=0.1, boundaries=(Tank((0, 0, 0), (0.2, 1, 0.2)),))
     water = Fluid(model, lattice((0, 0, 0), (0.2, depth_total, 0.2), s))
-    for _ in range(120):
+    for _ in range(180):  # 1.5 s: the last surface particles still rock at 1 s
         water.step(1 / 120)
     assert np.abs(water.velocities).max() < 0.1  # settled: 1 % of the free-fall speed
     p = water.positions
@@ -122,11 +122,16 @@ def test_a_tank_at_rest_has_hydrostatic_pressure():
 def test_small_dam_break_follows_martin_and_moyce():
     from benchmarks.dam_break import run
 
-    result = run(resolution=8, quick=True)
-    # 8 particles across the column (the benchmark uses 20): measured 10 % here and 14.5 %
-    # at 20 across (the front runs ahead of the experiment, more at finer resolution);
-    # the bound leaves room for the round-off of other machines, not for a broken solver.
-    assert result["max_rel_dev"] < 0.2
+    result = run(resolution=12, quick=True)
+    # The column at rest reads its own width (the edge level is the rest lattice's).
+    assert result["front_at_release"] == pytest.approx(1.0, abs=0.01)
+    # 12 particles across (the benchmark uses 20): the leading edge measured 12.5 % from
+    # T = 0.8 on (6.9 % at 20 across, 8.3 % at 30; at 12 the late surge is a tongue
+    # thinner than a kernel radius and the smoothed edge lags), 6.2 % on average. The
+    # bounds leave room for other machines' round-off (a collapse amplifies it: a few %),
+    # not for a broken solver.
+    assert result["max_rel_dev"] < 0.17
+    assert result["mean_rel_dev"] < 0.09
     assert result["mean_density_error"] < 0.02
 
 
@@ -147,7 +152,9 @@ def test_two_phases_separate_heavy_below_light(rng):
 
 
 def test_deterministic_and_thread_count_independent(rng):
-    model = FluidModel(spacing=0.02, viscosity=5.0, boundaries=(Tank((0, 0, 0), (0.6, 1, 0.3)),))
+    model = FluidModel(
+        spacing=0.02, viscosity=5.0, vorticity=10.0, boundaries=(Tank((0, 0, 0), (0.6, 1, 0.3)),)
+    )
     pos = lattice((0, 0, 0), (0.3, 0.3, 0.3), 0.02)  # 3375 particles: several blocks
 
     def run(threads):
@@ -177,6 +184,7 @@ def test_deterministic_and_thread_count_independent(rng):
         ({"iterations": 0}, "iterations must be >= 1"),
         ({"xsph": 2}, "xsph must be <= 1"),
         ({"viscosity": -1}, "viscosity must be >= 0"),
+        ({"vorticity": -1}, "vorticity must be >= 0"),
         ({"viscosity": 30}, r"viscosity must be <= 22.53 1/s at max_dt"),
         ({"phases": ()}, "phases must be a non-empty"),
         ({"boundaries": ("floor",)}, "boundaries must hold"),
@@ -244,3 +252,45 @@ def test_wall_friction_slows_a_sliding_block(model):
     free = slide(0.0)
     assert free == pytest.approx(1.0, abs=0.02)  # nothing to slow it without friction
     assert slide(0.5) < 0.9 * free
+
+
+def spinning_blob(vorticity: float) -> Fluid:
+    """A ball of water in free space turning as a decaying vortex (viscosity on)."""
+    s = 0.02
+    model = FluidModel(spacing=s, gravity=(0, 0, 0), viscosity=10.0, vorticity=vorticity)
+    p = lattice((-0.1, -0.1, -0.1), (0.1, 0.1, 0.1), s)
+    p = p[:, (p * p).sum(axis=0) < 0.1**2]
+    radial = (p[0] ** 2 + p[1] ** 2) / 0.05**2
+    swirl = 3.0 * np.exp(-radial)  # [rad/s], a Gaussian vortex core about the y axis
+    velocities = np.stack([-p[2] * swirl, np.zeros_like(swirl), p[0] * swirl])
+    return Fluid(model, p, velocities=velocities)
+
+
+def test_vorticity_confinement_puts_energy_back_into_a_decaying_vortex():
+    def kinetic(fluid):
+        return 0.5 * float((fluid.masses * (fluid.velocities.astype(float) ** 2).sum(0)).sum())
+
+    runs = {}
+    for eps in (0.0, 30.0):
+        blob = spinning_blob(eps)
+        start = kinetic(blob)
+        for _ in range(20):
+            blob.step(1 / 60)
+        runs[eps] = kinetic(blob) / start
+    # Viscosity takes energy out (measured: 3.9 % left after 1/3 s); confinement
+    # returns part of it (19.5 % left at ε = 30 /s).
+    assert runs[0.0] < 0.1
+    assert runs[30.0] > 2 * runs[0.0]
+    # Off by default and off at 0: the same step, bit for bit.
+    zero = spinning_blob(0.0)
+    assert FluidModel(spacing=0.02).vorticity == 0.0
+    default = Fluid(
+        FluidModel(spacing=0.02, gravity=(0, 0, 0), viscosity=10.0),
+        zero.positions.copy(),
+        velocities=zero.velocities.copy(),
+    )
+    for _ in range(3):
+        zero.step(1 / 60)
+        default.step(1 / 60)
+    assert_array_equal(zero.positions, default.positions)
+    assert_array_equal(zero.velocities, default.velocities)

@@ -36,7 +36,7 @@ from .boundaries import (
     SIGN,
     C,
 )
-from .sph import poly6, spiky, spiky_gradient_scale, wall_fraction, wall_fraction_slope
+from .sph import poly6, spiky, spiky_gradient_scale, wall_share
 
 #: Akinci et al. 2013, eq. 2: cohesion spline normalisation, 32 / π.
 COHESION = 32.0 / math.pi
@@ -86,10 +86,11 @@ def signed_distance(rows, b, x, y, z):
 
 
 @boundary_function
-def walls(rows, x, y, z, h):
+def walls(rows, x, y, z, h, spacing, scale):
     """The part of a particle's kernel that lies inside the walls, and its gradient.
 
-    Each wall alone takes :func:`wall_fraction` ``f_b`` of the kernel. Several walls (a
+    Each wall alone takes :func:`wall_share` ``f_b`` of the kernel (``spacing`` [m] and
+    ``scale`` [-] as there). Several walls (a
     tank's edge or corner) overlap; treating them as independent, the kernel left free
     is ``Q = Π_b (1 - f_b)``, exact for one wall and at a tank's corner (1/8 free) and
     within a few % between. Returns ``Q`` and ``∇(1 - Q)`` [1/m].
@@ -99,8 +100,7 @@ def walls(rows, x, y, z, h):
     for b in range(rows.shape[0]):
         d, nx, ny, nz = signed_distance(rows, b, x, y, z)
         if d < h:
-            f = wall_fraction(d, h)
-            slope = wall_fraction_slope(d, h)
+            f, slope = wall_share(d, spacing, h, scale)
             # ∇(1 - Q·(1 - f)) = (1 - f) ∇(1 - Q) + Q f' n.
             gx = (1.0 - f) * gx + free * slope * nx
             gy = (1.0 - f) * gy + free * slope * ny
@@ -144,7 +144,9 @@ def project(px, py, pz, rows, radius, depth):
 
 
 @parallel_kernel
-def density_lambda(px, py, pz, offsets, nbr, weight, rows, h, inv_delta0, eps, delta, lam):
+def density_lambda(
+    px, py, pz, offsets, nbr, weight, rows, h, spacing, wall_scale, inv_delta0, eps, delta, lam
+):
     """Number density and the Lagrange multiplier of each density constraint.
 
     Macklin & Müller 2013, eqs. 1-11, with the constraint ``C_i = δ_i / δ₀ - 1`` on the
@@ -172,7 +174,7 @@ def density_lambda(px, py, pz, offsets, nbr, weight, rows, h, inv_delta0, eps, d
                 gy += s * ry
                 gz += s * rz
                 sum_g2 += weight[j] * s * s * r2
-            free, wx, wy, wz = walls(rows, xi, yi, zi, h)
+            free, wx, wy, wz = walls(rows, xi, yi, zi, h, spacing, wall_scale)
             density += (1.0 - free) / inv_delta0
             gx += wx
             gy += wy
@@ -184,8 +186,9 @@ def density_lambda(px, py, pz, offsets, nbr, weight, rows, h, inv_delta0, eps, d
 
 @parallel_kernel
 def correction(
-    px, py, pz, offsets, nbr, weight, lam, rows, h, inv_delta0, k_corr, inv_wq, radius, out
-):
+    px, py, pz, offsets, nbr, weight, lam, rows, h, spacing, wall_scale, inv_delta0, k_corr,
+    inv_wq, radius, out,
+):  # fmt: skip
     """Corrected positions ``p_i + Δp_i`` [m] (Macklin & Müller 2013, eqs. 12-14), pushed
     out of the boundaries to ``radius`` [m]; ``out`` has shape (3, n).
 
@@ -215,7 +218,7 @@ def correction(
             ax *= wi * inv_delta0
             ay *= wi * inv_delta0
             az *= wi * inv_delta0
-            _, wx, wy, wz = walls(rows, xi, yi, zi, h)
+            _, wx, wy, wz = walls(rows, xi, yi, zi, h, spacing, wall_scale)
             ax += wi * li * wx
             ay += wi * li * wy
             az += wi * li * wz
@@ -446,3 +449,63 @@ def cell_density(sx, sy, sz, cell_start, origin, inv_cell, dims, h, out):
                         d = max(np.float32(h2) - (dx * dx + dy * dy + dz * dz), np.float32(0.0))
                         total += d * d * d
             out[q] = total * np.float32(poly6(0.0, h) / h**6)
+
+
+@parallel_kernel
+def vorticity(px, py, pz, vx, vy, vz, offsets, nbr, delta, h, out):
+    """Vorticity ``ω_i = Σ_j V_j ∇_i W_ij × (v_j - v_i)`` [1/s] (Macklin & Müller 2013,
+    eq. 15, with the volume ``V_j = 1 / δ_j``: the SPH curl, exact to the kernel's
+    discretisation for a rigid rotation, ``ω = 2Ω``); spiky gradients, ``out`` (3, n).
+    """
+    n = px.shape[0]
+    for block in prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            xi, yi, zi = px[i], py[i], pz[i]
+            ui, wi, si = vx[i], vy[i], vz[i]
+            ax = ay = az = 0.0
+            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
+                j = nbr[k]
+                rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
+                g = spiky_gradient_scale(math.sqrt(rx * rx + ry * ry + rz * rz), h) / delta[j]
+                du, dv, dw = vx[j] - ui, vy[j] - wi, vz[j] - si
+                ax += g * (ry * dw - rz * dv)
+                ay += g * (rz * du - rx * dw)
+                az += g * (rx * dv - ry * du)
+            out[0, i] = ax
+            out[1, i] = ay
+            out[2, i] = az
+
+
+@parallel_kernel
+def confinement(px, py, pz, vx, vy, vz, offsets, nbr, delta, omega, h, scale, out):
+    """Velocities after vorticity confinement (Fedkiw, Stam & Jensen 2001, eqs. 9-11, as
+    Macklin & Müller 2013, eq. 16 use it): ``v_i + scale (N_i × ω_i)`` with
+    ``N = η / |η|``, ``η_i = Σ_j V_j (|ω_j| - |ω_i|) ∇_i W_ij`` (the SPH gradient of
+    ``|ω|``, pointing toward the vortex cores) and ``scale = Δt ε spacing`` [m].
+    ``out`` (3, n) must not alias the velocities.
+    """
+    n = px.shape[0]
+    for block in prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            xi, yi, zi = px[i], py[i], pz[i]
+            oi = math.sqrt(omega[0, i] ** 2 + omega[1, i] ** 2 + omega[2, i] ** 2)
+            ex = ey = ez = 0.0
+            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
+                j = nbr[k]
+                rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
+                g = spiky_gradient_scale(math.sqrt(rx * rx + ry * ry + rz * rz), h) / delta[j]
+                oj = math.sqrt(omega[0, j] ** 2 + omega[1, j] ** 2 + omega[2, j] ** 2)
+                ex += g * (oj - oi) * rx
+                ey += g * (oj - oi) * ry
+                ez += g * (oj - oi) * rz
+            length = math.sqrt(ex * ex + ey * ey + ez * ez)
+            fx = fy = fz = 0.0
+            if length > 0.0:  # a flat |ω| has no direction to confine toward
+                ex, ey, ez = ex / length, ey / length, ez / length
+                wx, wy, wz = omega[0, i], omega[1, i], omega[2, i]
+                fx, fy, fz = ey * wz - ez * wy, ez * wx - ex * wz, ex * wy - ey * wx
+            out[0, i] = vx[i] + scale * fx
+            out[1, i] = vy[i] + scale * fy
+            out[2, i] = vz[i] + scale * fz

@@ -2,8 +2,8 @@
 
 Each boundary keeps fluid particles on its fluid side: the solver pushes a particle
 closer than its radius back to that distance (so no particle leaves a closed tank), counts
-the wall inside a particle's neighbourhood as fluid at rest density (the missing part of
-the kernel, :func:`motes.fluids.sph.wall_fraction`), and applies the boundary's own
+the wall inside a particle's neighbourhood as fluid at rest density (the rest lattice
+continued beyond it, :func:`motes.fluids.sph.wall_share`), and applies the boundary's own
 adhesion (Akinci, Akinci & Teschner 2013) and friction.
 
 Friction models against a boundary, for particles in contact with it:

@@ -234,11 +234,12 @@ class Fluid:
         inv_delta0 = 1.0 / d["delta0"]
         for _ in range(m.iterations):
             _kernels.density_lambda(
-                *predicted, offsets, nbr, weight, rows, h, inv_delta0, d["eps"], delta, lam
-            )
+                *predicted, offsets, nbr, weight, rows, h, m.spacing, d["wall_scale"],
+                inv_delta0, d["eps"], delta, lam,
+            )  # fmt: skip
             _kernels.correction(
-                *predicted, offsets, nbr, weight, lam, rows, h, inv_delta0,
-                d["tensile_k"], d["inv_wq"], radius, spare,
+                *predicted, offsets, nbr, weight, lam, rows, h, m.spacing, d["wall_scale"],
+                inv_delta0, d["tensile_k"], d["inv_wq"], radius, spare,
             )  # fmt: skip
             predicted, spare = spare, predicted
             lam_sum += lam
@@ -259,6 +260,15 @@ class Fluid:
         coefficients = np.array(
             [h, dt, m.xsph, m.viscosity, 1.0 / (2.0 * sigma * sigma), m.repulsion, d["delta0"]]
         )
+        if m.vorticity > 0:
+            omega = np.empty((3, n), np.float32)
+            _kernels.vorticity(*s.positions, *s.velocities, offsets, nbr, delta, h, omega)
+            confined = np.empty_like(s.velocities)
+            _kernels.confinement(
+                *s.positions, *s.velocities, offsets, nbr, delta, omega, h,
+                dt * m.vorticity * m.spacing, confined,
+            )  # fmt: skip
+            s.velocities = confined
         normals = np.zeros((3, n), np.float32)
         if d["cohesion"].max() > 0:
             _kernels.surface_normals(*s.positions, offsets, nbr, s.phase, delta, h, normals)

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import _validate
 from . import boundaries as _boundaries
-from .sph import SPIKY_GRAD, lattice_number_density
+from .sph import SPIKY_GRAD, lattice_number_density, wall_scale
 
 
 @dataclass(frozen=True)
@@ -66,6 +66,12 @@ class FluidModel:
     tensile : float
         Macklin & Müller's artificial pressure ``k`` as a fraction of the interior
         constraint scale, >= 0 (0 turns it off).
+    vorticity : float
+        Vorticity confinement ε [1/s] (Fedkiw, Stam & Jensen 2001, as Macklin & Müller
+        2013, eq. 16): each step adds ``Δt ε spacing (N × ω)`` to a particle's velocity,
+        ``N`` the unit vector toward stronger vorticity; it puts back the swirl that
+        the solver's numerical damping takes out. >= 0; 0 (the default) turns it off.
+        It is a force field, not a pairwise exchange: momentum is not conserved.
     relaxation : float
         Constraint force mixing ε as a fraction of the interior ``Σ|∇C|²``, > 0.
     max_dt : float
@@ -84,6 +90,7 @@ class FluidModel:
     viscosity_width: float | None = None
     repulsion: float = 0.0
     tensile: float = 0.0
+    vorticity: float = 0.0
     relaxation: float = 0.01
     max_dt: float = 1.0 / 240.0
     boundaries: tuple = ()
@@ -103,6 +110,7 @@ class FluidModel:
             _validate.positive("viscosity_width", self.viscosity_width)
         _validate.non_negative("repulsion", self.repulsion)
         _validate.non_negative("tensile", self.tensile)
+        _validate.non_negative("vorticity", self.vorticity)
         _validate.positive("relaxation", self.relaxation)
         _validate.positive("max_dt", self.max_dt)
         walls = tuple(self.boundaries)
@@ -157,6 +165,7 @@ class FluidModel:
         return {
             "h": h,
             "delta0": delta0,
+            "wall_scale": wall_scale(s, h),
             "eps": self.relaxation * stiffness,
             "tensile_k": self.tensile / stiffness,
             "inv_wq": 1.0 / w_dq,

@@ -274,6 +274,7 @@ def build_fluid(table: Table, context: BuildContext) -> FluidBody:
         "viscosity_width": table.get("viscosity_width", positive(), None),
         "repulsion": table.get("repulsion", number(), 0.0),
         "tensile": table.get("tensile", number(), 0.0),
+        "vorticity": table.get("vorticity", number(), 0.0),
         "relaxation": table.get("relaxation", number(), 0.01),
         "max_dt": table.get("max_dt", number(), 1.0 / 240.0),
         "gravity": table.get("gravity", vector(), (0.0, -9.81, 0.0)),
