@@ -21,7 +21,8 @@ import numpy as np
 
 from .. import _validate as check
 from ..cloth.drivers import Keyframes
-from ..cloth.kernels import collide_kernel, edge_colors_kernel, strain_kernel
+from ..cloth.kernels import collide_kernel
+from ..cloth.strain import StrainLimiter
 from ..collide.colliders import Collider, Sphere, pack
 from ..integrate.implicit import ConstraintFilter, ImplicitEuler, SolveReport, solver_threads
 from .bending import StencilSprings, angle_bending
@@ -211,11 +212,13 @@ class Hair:
             np.concatenate([np.full(len(stretch_pairs), ks), b_k]),
             np.concatenate([np.full(len(stretch_pairs), kd), b_kd]),
         )
-        colors = edge_colors_kernel(stretch_pairs, self.n)
-        order = np.argsort(colors, kind="stable")
-        self._stretch_pairs = np.ascontiguousarray(stretch_pairs[order])
-        self._stretch_rest = np.full(len(stretch_pairs), segment)
-        self._color_ptr = np.concatenate([[0], np.cumsum(np.bincount(colors))]).astype(np.int64)
+        self._limiter = (
+            None
+            if self.stretch_limit is None
+            else StrainLimiter(
+                stretch_pairs, np.full(len(stretch_pairs), segment), self.stretch_limit, 50
+            )
+        )
 
         self._roots = index[:, :2].ravel()
         self._root_local = self._local[self._roots]
@@ -257,18 +260,8 @@ class Hair:
             constraints=self.constraints,
             time=self.time,
         )
-        if self.stretch_limit is not None:
-            before = self.position.copy()
-            strain_kernel(
-                *self.position,
-                self._free / self.mass,
-                self._stretch_pairs,
-                self._stretch_rest,
-                self._color_ptr,
-                self.stretch_limit,
-                4,
-            )
-            self.velocity += (self.position - before) / h
+        if self._limiter is not None:
+            self._limiter.apply(self.position, self.velocity, self.mass, ~self._free, h)
         scalp = Sphere(
             c, self.head.radius + self.thickness, restitution=0.0, friction=self.head.friction
         )

@@ -160,7 +160,7 @@ def build_cloth(table: Table, context: BuildContext) -> ClothBody:
         "air_damping": table.get("air_damping", number(0.0), 0.1),
         "thickness": table.get("thickness", number(0.0), 0.005),
         "strain_limit": table.get("strain_limit", number(0.0), 0.1) or None,
-        "strain_iterations": table.get("strain_iterations", integer(1), 4),
+        "strain_iterations": table.get("strain_iterations", integer(1), 50),
         "scheme": table.get(
             "scheme",
             one_of("implicit_euler", "explicit_euler", "semi_implicit_euler"),
