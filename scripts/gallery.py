@@ -43,7 +43,10 @@ def main() -> None:
     parser.add_argument("--only", nargs="*", help="scene names (default: all built-in)")
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "gallery")
     parser.add_argument(
-        "--still-at", type=float, default=0.6, help="fraction of the run (default for scenes)"
+        "--still-at",
+        type=float,
+        default=None,
+        help="fraction of the run for every still (default: STILL_AT, else 0.6)",
     )
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
@@ -53,7 +56,7 @@ def main() -> None:
         scene, still_frame, seconds = render_scene(
             name,
             args.out,
-            still_at=args.still_at,
+            still_at=args.still_at if args.still_at is not None else STILL_AT.get(name, 0.6),
             still_size=(640, 360),
             gif_size=(256, 144),
             gif_stride=3,
