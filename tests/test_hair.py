@@ -27,9 +27,10 @@ def test_roots_move_rigidly_with_the_head_and_strands_stay_outside_it():
     distance = np.linalg.norm(hair.position.T - c, axis=1)
     # Every free particle is pushed out to the scalp plus the hair's thickness.
     assert distance[hair._free].min() >= head.radius + hair.thickness - 1e-12
-    # Stretch limited to 2 % by the Provot passes (4 per step), then the scalp pushes
-    # particles out, which can stretch a segment again (measured 3.2 %).
-    assert hair.segment_lengths().max() <= 0.2 / 7 * 1.05
+    # Stretch limited to 2 % by the Provot passes (ordered from the roots, so one pass
+    # limits a strand), then the scalp pushes particles out, which can stretch a
+    # segment again (measured 0.03 %).
+    assert hair.segment_lengths().max() <= 0.2 / 7 * 1.025
     assert hair.last_report.converged
 
 
