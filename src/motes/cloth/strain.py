@@ -45,20 +45,28 @@ def pin_rank(pairs: np.ndarray, pinned: np.ndarray) -> np.ndarray:
     """Graph distance (in springs) of each particle from the nearest pinned one.
 
     ``pairs`` (m, 2) int64, ``pinned`` (n,) bool. Particles not connected to a pin get
-    ``n`` (all equal when nothing is pinned). Breadth-first, one vectorised relaxation
-    per level (at most the graph's diameter of them).
+    ``n`` (all equal when nothing is pinned). Breadth-first from the pins, one
+    vectorised expansion of the frontier per level through a particle -> neighbour CSR
+    list: O(n + m) work in all.
     """
     n = pinned.shape[0]
     rank = np.where(pinned, 0, n).astype(np.int64)
-    a, b = pairs[:, 0], pairs[:, 1]
-    for level in range(n):
-        reached = np.zeros(n, dtype=bool)
-        reached[a[rank[b] == level]] = True
-        reached[b[rank[a] == level]] = True
-        fresh = reached & (rank == n)
-        if not fresh.any():
-            break
-        rank[fresh] = level + 1
+    ends = pairs.ravel()
+    order = np.argsort(ends, kind="stable")
+    neighbour = pairs[:, ::-1].ravel()[order]
+    ptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(ends, minlength=n), out=ptr[1:])
+    frontier = np.flatnonzero(pinned)
+    level = 0
+    while frontier.size:
+        starts = ptr[frontier]
+        counts = ptr[frontier + 1] - starts
+        total = int(counts.sum())
+        offsets = np.repeat(starts - (np.cumsum(counts) - counts), counts)
+        reached = neighbour[np.arange(total) + offsets]
+        frontier = np.unique(reached[rank[reached] == n])
+        level += 1
+        rank[frontier] = level
     return rank
 
 
