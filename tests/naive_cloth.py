@@ -87,16 +87,29 @@ def aero_forces(x, v, faces, wind, air, time, frequencies, phases):
     return out
 
 
-def strain_limit(x, weight, pairs, rest, limit, iterations):
-    """Provot 1995 strain limiting, springs visited in the given order (Gauss-Seidel)."""
+def strain_limit(x, weight, rank, pairs, rest, limit, tolerance, passes, shock):
+    """Provot 1995 strain limiting, springs visited in the given order (Gauss-Seidel);
+    in the first ``shock`` passes the end of lower rank stays put when the other can
+    move. Returns (x, passes)."""
     x = x.copy()
-    for _ in range(iterations):
+    for p in range(passes):
+        done = True
         for (a, b), s in zip(pairs, rest, strict=True):
             d = x[:, a] - x[:, b]
             length = np.linalg.norm(d)
-            total = weight[a] + weight[b]
-            if length > (1 + limit) * s and total > 0:
-                step = ((1 + limit) * s - length) / (length * total) * d
-                x[:, a] += weight[a] * step
-                x[:, b] -= weight[b] * step
-    return x
+            excess = length - (1 + limit) * s
+            if excess <= 0:
+                continue
+            done = done and excess <= tolerance * s
+            wa, wb = weight[a], weight[b]
+            if p < shock and rank[a] < rank[b] and wb > 0:
+                wa = 0.0
+            elif p < shock and rank[b] < rank[a] and wa > 0:
+                wb = 0.0
+            if wa + wb > 0:
+                step = -excess / (length * (wa + wb)) * d
+                x[:, a] += wa * step
+                x[:, b] -= wb * step
+        if done:
+            return x, p + 1
+    return x, passes

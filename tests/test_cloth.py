@@ -8,13 +8,11 @@ from motes.cloth import Airflow, Cloth, Keyframes, SpringFamily, topology
 from motes.cloth.kernels import (
     aero_triangle_kernel,
     collide_kernel,
-    edge_colors_kernel,
     gather_triangles_kernel,
-    strain_kernel,
 )
 from motes.collide.colliders import pack
 from naive import penetration, respond
-from naive_cloth import aero_forces, strain_limit
+from naive_cloth import aero_forces
 
 
 def test_grid_topology_counts_and_mass():
@@ -91,40 +89,6 @@ def test_aero_forces_depend_on_orientation():
     q = 0.5 * 1.2 * area * 16 * np.cos(np.pi / 4)
     assert f[2] == pytest.approx(q * 1.0)
     assert abs(f[1]) == pytest.approx(q * 0.5 * np.sin(np.pi / 4))
-
-
-def test_strain_limiting_matches_its_twin_and_holds():
-    # A zig-zag chain pulled to 1.6x its length, one end pinned.
-    rng = np.random.default_rng(1)
-    n = 12
-    pairs = np.stack([np.arange(n - 1), np.arange(1, n)], 1)
-    x = np.zeros((3, n))
-    x[0] = np.cumsum(rng.uniform(1.2, 2.0, n))
-    x[1] = rng.normal(scale=0.1, size=n)
-    rest = np.ones(n - 1)
-    weight = np.ones(n)
-    weight[0] = 0.0
-    colors = edge_colors_kernel(pairs, n)
-    order = np.argsort(colors, kind="stable")
-    ptr = np.concatenate([[0], np.cumsum(np.bincount(colors))])
-    expected = strain_limit(x, weight, pairs[order], rest[order], 0.1, 400)
-    got = x.copy()
-    strain_kernel(*got, weight, pairs[order], rest[order], ptr, 0.1, 400)
-    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
-    lengths = np.linalg.norm(got[:, 1:] - got[:, :-1], axis=0)
-    # Gauss-Seidel along a chain pinned at one end converges geometrically but slowly
-    # (a diffusion: O(m²) passes for m springs): 400 passes leave it within 1 %.
-    assert lengths.max() <= 1.1 * 1.01
-    assert np.all(got[:, 0] == x[:, 0])
-
-
-def test_edge_colours_never_share_a_particle():
-    top = topology.grid(9, 7, 1.0, 1.0)
-    pairs = np.concatenate([top.structural, top.shear])
-    colors = edge_colors_kernel(pairs, 63)
-    for c in np.unique(colors):
-        ends = pairs[colors == c].ravel()
-        assert len(np.unique(ends)) == len(ends)
 
 
 @pytest.mark.parametrize(
@@ -207,9 +171,8 @@ def test_strain_limit_keeps_a_hanging_cloth_from_stretching():
         for _ in range(60):
             cloth.step(1 / 60)
     assert rubber.stretch().max() > 0.12  # measured 0.156
-    # Each step ends within the limit up to what 30 Gauss-Seidel passes leave along the
-    # 15-spring columns (measured 0.0529; 100 passes: 0.0501).
-    assert limited.stretch().max() < 0.055
+    # Passes stop once no spring exceeds the limit by more than 0.1 % strain.
+    assert limited.stretch().max() <= 0.05 + 1e-3
 
 
 @pytest.mark.parametrize(

@@ -136,7 +136,9 @@ def test_stiff_cloth_is_stable_implicitly_at_h_1_30_and_explicit_euler_diverges(
     assert not implicit.diverged
     assert np.linalg.norm(implicit.velocity, axis=0).max() < 10.0
     assert implicit.stretch().max() < 0.2
-    assert explicit.diverged or np.abs(explicit.position).max() > 1e3
+    # The strain limiter pulls positions back toward the pins, but the velocities
+    # diverge (measured ~1e88 m/s after 30 steps).
+    assert explicit.diverged or np.abs(explicit.velocity).max() > 1e3
 
 
 def test_cloth_step_is_independent_of_the_thread_count():

@@ -1,10 +1,9 @@
-r"""Compiled cloth passes: aerodynamic forces, collisions, strain limiting.
+r"""Compiled cloth passes: aerodynamic forces and collisions.
 
 All take float64 ``(3, n)`` rows (``*position``) like the implicit solver they feed.
 Per-triangle quantities are gathered per vertex through a vertex -> triangle CSR list
-(``first``, ``tris``), never scattered, and strain limiting updates one colour of
-springs at a time (no two share a particle), so results do not depend on the thread
-count.
+(``first``, ``tris``), never scattered, so results do not depend on the thread count.
+Strain limiting is in :mod:`motes.cloth.strain`.
 """
 
 from __future__ import annotations
@@ -12,7 +11,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .._jit import block_bounds, block_count, device, parallel_kernel, serial_kernel
+from .._jit import block_bounds, block_count, device, parallel_kernel
 from ..collide.geometry import penetration, respond
 
 
@@ -171,65 +170,3 @@ def collide_kernel(x, y, z, vx, vy, vz, movable, structure, table, dt):
             vx[i] = ux
             vy[i] = uy
             vz[i] = uz
-
-
-@serial_kernel
-def edge_colors_kernel(pairs, n):
-    """Greedy edge colouring: no two springs of one colour share a particle.
-
-    Each spring takes the smallest colour unused at both its ends (at most 63 colours:
-    a particle with more springs than that raises). Returns int64 (m,) colours.
-    """
-    used = np.zeros(n, dtype=np.int64)  # bit c set: colour c taken at this particle
-    colors = np.empty(pairs.shape[0], dtype=np.int64)
-    for k in range(pairs.shape[0]):
-        a = pairs[k, 0]
-        b = pairs[k, 1]
-        taken = used[a] | used[b]
-        c = 0
-        while taken & (1 << c):
-            c += 1
-        if c >= 63:
-            raise ValueError("a particle has more than 62 springs")
-        colors[k] = c
-        used[a] |= 1 << c
-        used[b] |= 1 << c
-    return colors
-
-
-@serial_kernel
-def strain_kernel(x, y, z, weight, pairs, rest, color_ptr, limit, iterations):
-    """Provot (1995) strain limiting, Gauss-Seidel over colours of springs.
-
-    A spring longer than ``(1 + limit) · rest`` is shortened to that length, its ends
-    moving along it in proportion to their weights ``w`` (inverse masses; 0 for pinned
-    particles). Springs are ordered by colour (``color_ptr`` (c + 1,) offsets); no two
-    springs of one colour share a particle, so the order within a colour does not
-    matter and the next colour sees the result. Serial: a colour is a few thousand
-    springs, too little work to pay for a parallel region per colour and pass.
-    """
-    colors = color_ptr.shape[0] - 1
-    for _ in range(iterations):
-        for color in range(colors):
-            first = color_ptr[color]
-            count = color_ptr[color + 1] - first
-            for block in range(block_count(count)):
-                start, stop = block_bounds(block, count)
-                for j in range(start, stop):
-                    k = first + j
-                    a = pairs[k, 0]
-                    b = pairs[k, 1]
-                    dx = x[a] - x[b]
-                    dy = y[a] - y[b]
-                    dz = z[a] - z[b]
-                    length = np.sqrt(dx * dx + dy * dy + dz * dz)
-                    longest = (1.0 + limit) * rest[k]
-                    total = weight[a] + weight[b]
-                    if length > longest and total > 0.0:
-                        s = (longest - length) / (length * total)
-                        x[a] += s * weight[a] * dx
-                        y[a] += s * weight[a] * dy
-                        z[a] += s * weight[a] * dz
-                        x[b] -= s * weight[b] * dx
-                        y[b] -= s * weight[b] * dy
-                        z[b] -= s * weight[b] * dz

@@ -118,28 +118,40 @@ class Springs(Force):
             spring_force, self._touched, self._offsets[:-1], self._offsets[1:], self._entries, *out
         )
 
-    def jacobian(self, store, position, velocity) -> ForceJacobian:
-        """Analytic ∂f/∂x [N/m] and ∂f/∂v [N s/m] (float64), four blocks per spring.
+    def jacobian(self, store, position, velocity, *, exact: bool = False) -> ForceJacobian:
+        """∂f/∂x [N/m] and ∂f/∂v [N s/m] (float64), four blocks per spring.
 
-        With ``d̂ = d/|d|``, ``P = d̂d̂ᵀ`` and ``Q = I - P`` (Baraff & Witkin 1998)::
+        With ``d̂ = d/|d|``, ``P = d̂d̂ᵀ``, ``Q = I - P`` and blocks ``(a, a)``, ``(b, b)``
+        equal to ``+K`` and ``(a, b)``, ``(b, a)`` to ``-K``.
+
+        By default (``exact=False``) the form Baraff & Witkin 1998 (§5.2) and Choi & Ko
+        2002 ("Stable but responsive cloth", §4) use for implicit integration, which the
+        implicit integrator's compiled spring path also uses::
+
+            ∂f_a/∂x_a = -k_s [P + max(0, 1 - s/|d|) Q],   ∂f_a/∂v_a = -k_d P
+
+        Two terms of the true derivative are dropped: the transverse stiffness of a
+        *compressed* spring (``|d| < s`` makes ``1 - s/|d|`` negative: the true ∂f/∂x
+        is then indefinite, the buckling instability Choi & Ko describe), and the
+        damping force's position derivative (not symmetric). What is left is symmetric
+        and negative semi-definite (each spring's ``K`` is positive semi-definite and
+        ``[[K, -K], [-K, K]] = [[1, -1], [-1, 1]] ⊗ K``), so ``M - h ∂f/∂v - h² ∂f/∂x``
+        is symmetric positive definite and conjugate gradients apply. It equals the
+        true derivative for springs at rest length or longer that are not changing
+        length or turning (``ḋ = 0``).
+
+        ``exact=True`` gives the true derivative (for Newton's method or checks)::
 
             ∂f_a/∂x_a = -k_s [P + (1 - s/|d|) Q] - (k_d/|d|) [d̂ (Q ḋ)ᵀ + (ḋ·d̂) Q]
-            ∂f_a/∂v_a = -k_d P
 
-        The damping term's position derivative (the second bracket) is included exactly;
-        Baraff & Witkin drop it to keep ∂f/∂x symmetric, so this matrix is not symmetric
-        when springs move. Blocks ``(a, a)`` and ``(b, b)`` are ``+K``, ``(a, b)`` and
-        ``(b, a)`` are ``-K``. For ``|d| < s`` the ``(1 - s/|d|) Q`` term makes ∂f/∂x
-        indefinite (Choi & Ko 2002 discuss the resulting instability); it is not
-        clamped here. A zero-length spring gets ``∂f/∂x = -k_s I`` (exact for ``s = 0``)
-        and ``∂f/∂v = 0``.
+        A zero-length spring gets ``∂f/∂x = -k_s I`` (exact for ``s = 0``) and
+        ``∂f/∂v = 0``.
         """
         self._check(position, velocity, position)
         a, b = self.pairs[:, 0], self.pairs[:, 1]
         x = np.asarray(position, dtype=np.float64)
         v = np.asarray(velocity, dtype=np.float64)
         d = (x[:, a] - x[:, b]).T  # (m, 3)
-        dv = (v[:, a] - v[:, b]).T
         length = np.linalg.norm(d, axis=1)
         nonzero = length > 0
         safe = np.where(nonzero, length, 1.0)
@@ -147,14 +159,18 @@ class Springs(Force):
         eye = np.eye(3)
         p = unit[:, :, None] * unit[:, None, :]
         q = eye - p
-        closing = np.einsum("ij,ij->i", dv, unit)
-        q_dv = np.einsum("kij,kj->ki", q, dv)
         ks = self.stiffness[:, None, None]
         kd = self.damping[:, None, None]
-        ratio = (self.rest_length / safe)[:, None, None]
-        dfdx = -ks * (p + (1.0 - ratio) * q) - kd / safe[:, None, None] * (
-            unit[:, :, None] * q_dv[:, None, :] + closing[:, None, None] * q
-        )
+        ratio = 1.0 - self.rest_length / safe
+        if exact:
+            dv = (v[:, a] - v[:, b]).T
+            closing = np.einsum("ij,ij->i", dv, unit)
+            q_dv = np.einsum("kij,kj->ki", q, dv)
+            dfdx = -ks * (p + ratio[:, None, None] * q) - kd / safe[:, None, None] * (
+                unit[:, :, None] * q_dv[:, None, :] + closing[:, None, None] * q
+            )
+        else:
+            dfdx = -ks * (p + np.maximum(ratio, 0.0)[:, None, None] * q)
         dfdx[~nonzero] = -self.stiffness[~nonzero, None, None] * eye
         dfdv = -kd * p
         rows = np.concatenate([a, a, b, b])

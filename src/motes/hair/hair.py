@@ -21,7 +21,8 @@ import numpy as np
 
 from .. import _validate as check
 from ..cloth.drivers import Keyframes
-from ..cloth.kernels import collide_kernel, edge_colors_kernel, strain_kernel
+from ..cloth.kernels import collide_kernel
+from ..cloth.strain import StrainLimiter
 from ..collide.colliders import Collider, Sphere, pack
 from ..integrate.implicit import ConstraintFilter, ImplicitEuler, SolveReport, solver_threads
 from .bending import StencilSprings, angle_bending
@@ -91,10 +92,12 @@ class Head:
 
 
 def scalp_directions(count: int, *, seed: int = 0, coverage: float = 0.55) -> np.ndarray:
-    """``count`` unit vectors spread over the top and back of a head (y up, face +z).
+    """``count`` unit vectors spread over the top, back and sides of a head (y up, face
+    +z).
 
-    Uniform on the sphere cap ``y >= 1 - 2·coverage`` minus the face and temples (the
-    front half, ``z > -0.2``, below the crown at ``y = 0.85``), drawn from ``seed``.
+    Uniform on the sphere cap ``y >= 1 - 2·coverage`` inside a hairline: above the
+    forehead (``z < 0.55`` where ``y > 0.5``), the temples (``z < 0.15`` where
+    ``y > 0.15``) and the back (``z < -0.25``); the face stays bare. Drawn from ``seed``.
     """
     rng = np.random.default_rng(check.integer("seed", seed, low=0))
     out = np.empty((0, 3))
@@ -103,9 +106,23 @@ def scalp_directions(count: int, *, seed: int = 0, coverage: float = 0.55) -> np
         phi = rng.uniform(0, 2 * np.pi, 2 * count)
         r = np.sqrt(1 - y * y)
         d = np.stack([r * np.cos(phi), y, r * np.sin(phi)], 1)
-        face = (d[:, 2] > -0.2) & (d[:, 1] < 0.85)
-        out = np.concatenate([out, d[~face]])
+        z = d[:, 2]
+        scalp = ((y > 0.5) & (z < 0.55)) | ((y > 0.15) & (z < 0.15)) | (z < -0.25)
+        out = np.concatenate([out, d[scalp]])
     return out[:count]
+
+
+def growth_directions(roots: np.ndarray, comb, lift: float) -> np.ndarray:
+    """Unit directions in which strands leave the scalp at ``roots`` (k, 3) (unit,
+    from the head's centre): ``comb`` projected onto the scalp's tangent plane, tilted
+    out of it by ``lift`` (``t + lift·n``, normalised; radial where ``comb`` is normal
+    to the scalp)."""
+    c = np.asarray(comb, dtype=np.float64)
+    tangent = c[None, :] - (roots @ c)[:, None] * roots
+    size = np.linalg.norm(tangent, axis=1, keepdims=True)
+    along = np.where(size > 1e-6, tangent / np.maximum(size, 1e-300), 0.0)
+    g = along + lift * roots
+    return g / np.linalg.norm(g, axis=1, keepdims=True)
 
 
 class Hair:
@@ -120,8 +137,18 @@ class Hair:
         Particles per strand including the two root particles (>= 3).
     length : float
         Strand length [m] (> 0).
+    length_variation : float
+        In [0, 1): strand ``j`` is ``length · (1 - length_variation · u_j)`` long, ``u_j``
+        uniform in [0, 1) drawn from ``seed`` (uneven ends read as hair, not a wig).
     directions : (strands, 3) array_like, optional
         Root directions from the head's centre; default :func:`scalp_directions`.
+    comb : (3,) array_like or None
+        Direction in the head's frame the hair is combed toward (default down and back);
+        strands leave the scalp along it (see :func:`growth_directions`), which is also
+        their straight rest shape. None: straight out from the scalp.
+    lift : float
+        How steeply strands leave the scalp (>= 0): the tilt ``t + lift·n`` of the
+        combed tangent ``t`` toward the normal ``n``.
     mass : float
         Mass per particle > 0 [kg].
     stretch : (float, float)
@@ -151,7 +178,10 @@ class Hair:
         strands: int = 500,
         particles: int = 10,
         length: float = 0.25,
+        length_variation: float = 0.0,
         directions=None,
+        comb=(0.0, -1.0, -1.0),
+        lift: float = 0.3,
         mass: float = 1e-4,
         stretch=(500.0, 0.02),
         bending=(2.0, 0.001),
@@ -178,6 +208,11 @@ class Hair:
         if np.any(norm == 0):
             raise ValueError("directions must be non-zero")
         d = d / norm
+        self.lift = check.non_negative("lift", lift)
+        if comb is None:
+            growth = d
+        else:
+            growth = growth_directions(d, check.unit_vector("comb", comb), self.lift)
         self.strand_count, self.per_strand = s, p
         self.n = s * p
         self.particle_mass = check.positive("mass", mass)
@@ -196,10 +231,17 @@ class Hair:
                 raise TypeError(f"colliders must hold Collider objects, got {c!r}")
         self.solver = solver if solver is not None else ImplicitEuler()
 
-        # Rest shape: straight out along the root direction, in the head's frame.
-        segment = self.length / (p - 1)
+        # Rest shape: straight from the root along the growth direction, head's frame.
+        variation = check.real(
+            "length_variation", length_variation, low=0.0, high=1.0, high_open=True
+        )
+        u = np.random.default_rng([check.integer("seed", seed, low=0), 1]).random(s)
+        self.lengths = self.length * (1.0 - variation * u)  #: per strand [m], (strands,)
+        segment = self.lengths / (p - 1)  # (s,)
         k = np.arange(p)
-        local = (head.radius + segment * k)[None, :, None] * d[:, None, :]  # (s, p, 3)
+        local = (
+            head.radius * d[:, None, :] + (segment[:, None] * k)[:, :, None] * growth[:, None, :]
+        )
         self._local = local.reshape(-1, 3)
         index = np.arange(self.n).reshape(s, p)
         stretch_pairs = np.stack([index[:, :-1].ravel(), index[:, 1:].ravel()], 1)
@@ -207,15 +249,15 @@ class Hair:
         b_pairs, b_rest, b_k, b_kd = angle_bending(triples, kb, kbd)
         self.springs = StencilSprings(
             np.concatenate([stretch_pairs, b_pairs]),
-            np.concatenate([np.full(len(stretch_pairs), segment), b_rest]),
+            np.concatenate([np.repeat(segment, p - 1), b_rest]),
             np.concatenate([np.full(len(stretch_pairs), ks), b_k]),
             np.concatenate([np.full(len(stretch_pairs), kd), b_kd]),
         )
-        colors = edge_colors_kernel(stretch_pairs, self.n)
-        order = np.argsort(colors, kind="stable")
-        self._stretch_pairs = np.ascontiguousarray(stretch_pairs[order])
-        self._stretch_rest = np.full(len(stretch_pairs), segment)
-        self._color_ptr = np.concatenate([[0], np.cumsum(np.bincount(colors))]).astype(np.int64)
+        self._limiter = (
+            None
+            if self.stretch_limit is None
+            else StrainLimiter(stretch_pairs, np.repeat(segment, p - 1), self.stretch_limit, 50)
+        )
 
         self._roots = index[:, :2].ravel()
         self._root_local = self._local[self._roots]
@@ -257,18 +299,8 @@ class Hair:
             constraints=self.constraints,
             time=self.time,
         )
-        if self.stretch_limit is not None:
-            before = self.position.copy()
-            strain_kernel(
-                *self.position,
-                self._free / self.mass,
-                self._stretch_pairs,
-                self._stretch_rest,
-                self._color_ptr,
-                self.stretch_limit,
-                4,
-            )
-            self.velocity += (self.position - before) / h
+        if self._limiter is not None:
+            self._limiter.apply(self.position, self.velocity, self.mass, ~self._free, h)
         scalp = Sphere(
             c, self.head.radius + self.thickness, restitution=0.0, friction=self.head.friction
         )

@@ -18,7 +18,9 @@ Which forces are implicit
   :class:`~motes.forces.base.ForceJacobian` is assembled from its blocks (NumPy). The
   conjugate gradient method needs ``A`` symmetric positive definite: such a force's
   ``∂f/∂x`` and ``∂f/∂v`` must be symmetric and negative semi-definite (true of
-  conservative, dissipative forces).
+  conservative, dissipative forces; :meth:`Springs.jacobian
+  <motes.forces.springs.Springs.jacobian>` gives such a form by default, the true
+  derivative being indefinite for compressed springs).
 - Forces whose ``jacobian`` returns None, and the ``external`` forces passed to
   :meth:`ImplicitEuler.step` (gravity, wind), are explicit: evaluated once at the start
   of the step and held constant through it.

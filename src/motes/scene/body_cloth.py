@@ -160,7 +160,7 @@ def build_cloth(table: Table, context: BuildContext) -> ClothBody:
         "air_damping": table.get("air_damping", number(0.0), 0.1),
         "thickness": table.get("thickness", number(0.0), 0.005),
         "strain_limit": table.get("strain_limit", number(0.0), 0.1) or None,
-        "strain_iterations": table.get("strain_iterations", integer(1), 4),
+        "strain_iterations": table.get("strain_iterations", integer(1), 50),
         "scheme": table.get(
             "scheme",
             one_of("implicit_euler", "explicit_euler", "semi_implicit_euler"),
@@ -284,6 +284,9 @@ def build_hair(table: Table, context: BuildContext) -> HairBody:
         strands=table.get("strands", integer(1), 500),
         particles=table.get("particles", integer(3), 10),
         length=table.get("length", positive(), 0.25),
+        length_variation=table.get("length_variation", number(0.0, 1.0, high_open=True), 0.0),
+        comb=table.get("comb", vector(), (0.0, -1.0, -1.0)),
+        lift=table.get("lift", number(0.0), 0.3),
         mass=table.get("mass", positive(), 1e-4),
         stretch=table.get("stretch", vector(2), (500.0, 0.02)),
         bending=table.get("bending", vector(2), (2.0, 0.001)),
