@@ -254,7 +254,7 @@ class World:
             compliance=compliance,
         )
 
-    def add_hinge_sides(self, rows, offset=0.0, *, stiffness=1.0):
+    def add_hinge_sides(self, rows, offset=0.0, *, stiffness=1.0, recovery=3.0):
         """Keep hinge joints bending one way only; rows ``(i, k, l, r, j)`` (see
         :meth:`motes.constrain.ConstraintBuilder.add_hinge_sides`). The side ``j`` is
         on now is the allowed one: build the body slightly bent the right way."""
@@ -265,7 +265,9 @@ class World:
         side = np.einsum("ij,ij->i", x[j] - x[k], n)
         orientation = np.where(side > 0, -1.0, 1.0)
         self._built = None
-        return self._constraints.add_hinge_sides(rows, orientation, offset, stiffness=stiffness)
+        return self._constraints.add_hinge_sides(
+            rows, orientation, offset, stiffness=stiffness, recovery=recovery
+        )
 
     def pin(self, indices, targets=None) -> None:
         """Hold particles at ``targets`` ((k, 3) [m]; default: where they are)."""
@@ -544,7 +546,8 @@ class World:
                     inv_mass,
                     h,
                     sqrt_approximation=self.sqrt_approximation,
-                    previous=q if self.projection == "shake" else None,
+                    previous=q,
+                    shake=self.projection == "shake",
                 )
             if len(table):
                 project_contacts(
