@@ -46,7 +46,8 @@ def project(x, w, kind, ends, lo, hi, compliance, stiffness, lam, c, dt, approx,
         allowed = max(before - abs(hi[c]) * dt, 0.0)
         if side <= allowed:
             return
-        ci = max(bone @ (x[j] - x[k]), 0.0) / (bone @ bone)
+        perp = bone - axis * (axis @ bone) / (axis @ axis)
+        ci = (x[j] - x[k]) @ perp / (perp @ perp)
         weight = w[j] + w[i] * ci**2 + w[k] * (1 + ci) ** 2
         if weight <= 0:
             return

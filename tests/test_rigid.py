@@ -114,7 +114,7 @@ def test_ball_joint_and_hinge_by_shared_particles():
 def test_ragdoll_has_the_stated_topology_and_mass():
     w = mr.World()
     rd = mr.add_ragdoll(w, (0, 0, 0), height=1.8, mass=75.0)
-    assert w.count == 15 and len(w.constraints) == 35  # 31 + 4 hinge sides
+    assert w.count == 15 and len(w.constraints) == 31
     assert_allclose(w.mass.sum(), 75.0)
     assert_allclose(w.position[:, 1].max(), 0.936 * 1.8)
     assert rd.limit_violation(w.position).max() == 0.0
@@ -126,21 +126,15 @@ def test_ragdoll_falls_over_and_rests_within_its_limits():
     rd = mr.add_ragdoll(w, (0, 0, 0))
     w.add_collider(Plane((0, 1, 0), 0.0, friction=0.6))
     w.set_velocity(rd.indices, (0.0, 0.5, 1.5))
-    worst, backwards = 0.0, np.zeros(4)
+    worst = 0.0
     for _ in range(240):
         w.step(1 / 60)
-        limits = rd.limit_violation(w.position)
-        worst = max(worst, limits[:13].max())
-        backwards += limits[13:] > np.radians(5)
+        worst = max(worst, rd.limit_violation(w.position).max())
     assert w.position[:, 1].max() < 0.5  # lying down
     assert np.abs(w.velocity).max() < 0.05
     # Joint limits are relaxed together with the ground contacts (10 iterations): while
     # the fall's impact is absorbed they give a few degrees.
     assert np.degrees(worst) < 6.0
-    # A knee held by the ground past its hinge plane recovers at 3 m/s: bent backwards
-    # by more than 5° for at most 0.5 s (measured: 15 steps), straight at the end.
-    assert backwards.max() <= 30
-    assert np.degrees(limits[13:]).max() < 1.0
 
 
 def test_world_steps_are_deterministic_and_thread_count_independent():

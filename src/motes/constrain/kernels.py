@@ -113,12 +113,18 @@ def _project_side(c, px, py, pz, qx, qy, qz, inv_mass, ends, lo, hi, stiffness, 
     allowed = max(before - abs(hi[c]) * dt, 0.0)
     if side <= allowed:
         return
-    # The limit as a bend of the joint (the three-particle bending gradient): j moves
-    # by -n, the bone's far end i by -c n and the joint k by (1 + c) n, with
-    # c = (x_j - x_k)·(x_k - x_i)/|x_k - x_i|² (how far moving i turns the plane past
-    # j). The gradients sum to zero: no net momentum, and the reaction turns the bone
-    # before the joint instead of pushing the joint alone.
-    c_i = max(bx * (px[j] - px[k]) + by * (py[j] - py[k]) + bz * (pz[j] - pz[k]), 0.0) / b2
+    # The limit as a bend of the joint: to first order, moving j by -δn lowers the side
+    # by δ, moving i by -δn by c δ and k by +δn by (1 + c) δ, where
+    # c = (x_j - x_k)·b⊥/|b⊥|² with b⊥ the bone's part perpendicular to the axis (the
+    # bone turns the plane about the axis). The gradients sum to zero: no net momentum,
+    # and the reaction turns the bone before the joint. c is near -1 for a folded joint,
+    # where moving k no longer helps (clamping c at 0 lifted folded knees off the
+    # ground step after step).
+    sx, sy, sz = px[j] - px[k], py[j] - py[k], pz[j] - pz[k]
+    sb = sx * bx + sy * by + sz * bz
+    sa = sx * ax + sy * ay + sz * az
+    ab = ax * bx + ay * by + az * bz
+    c_i = (a2 * sb - sa * ab) / (norm * norm)
     wj = inv_mass[j]
     wi = inv_mass[i] * c_i * c_i
     wk = inv_mass[k] * (1.0 + c_i) * (1.0 + c_i)
