@@ -27,14 +27,41 @@ def project(x, w, kind, ends, lo, hi, compliance, stiffness, lam, c, dt, approx,
     """
     i, j, k = ends[c][:3]
     if kind[c] == SIDE:
-        bone, axis = x[k] - x[i], x[ends[c][4]] - x[ends[c][3]]
-        n = hi[c] * np.cross(bone, axis)
-        if np.linalg.norm(n) ** 2 <= 0.25 * (bone @ bone) * (axis @ axis):
-            return  # sin(angle) <= 1/2: ill-defined plane
+        left, right = ends[c][3], ends[c][4]
+        bone, axis = x[k] - x[i], x[right] - x[left]
+        n = np.sign(hi[c]) * np.cross(bone, axis)
+        sin = np.linalg.norm(n) / np.sqrt((bone @ bone) * (axis @ axis))
+        if sin <= 0.5:
+            return  # ill-defined plane
         n /= np.linalg.norm(n)
         side = (x[j] - x[k]) @ n - lo[c]
-        if side > 0 and w[j] > 0:
-            x[j] -= stiffness[c] * side * n
+        if side <= 0:
+            return
+        # The side at the start of the step, across the start's plane where defined.
+        start = x if q is None else q
+        m = np.sign(hi[c]) * np.cross(start[k] - start[i], start[right] - start[left])
+        u, v = start[k] - start[i], start[right] - start[left]
+        m = m / np.linalg.norm(m) if m @ m > 0.25 * (u @ u) * (v @ v) else n
+        before = (start[j] - start[k]) @ m - lo[c]
+        allowed = max(before - abs(hi[c]) * dt, 0.0)
+        if side <= allowed:
+            return
+        perp = bone - axis * (axis @ bone) / (axis @ axis)
+        ci = (x[j] - x[k]) @ perp / (perp @ perp)
+        weight = w[j] + w[i] * ci**2 + w[k] * (1 + ci) ** 2
+        if weight <= 0:
+            return
+        if lam[c] == 0:  # the step's budget: the violation found first (offset by 1)
+            lam[c] = 1 + side - allowed
+        amount = min(side - allowed, lam[c] - 1)
+        if amount <= 0:
+            return
+        lam[c] -= amount
+        fade = min((sin - 0.5) / (np.sqrt(0.5) - 0.5), 1.0)
+        s = fade * stiffness[c] * amount / weight
+        x[j] -= w[j] * s * n
+        x[i] -= w[i] * ci * s * n
+        x[k] += w[k] * (1 + ci) * s * n
         return
     d = x[j] - x[i]
     if kind[c] == ANGLE:

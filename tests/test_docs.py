@@ -53,3 +53,4 @@ def test_rigid_guide_examples_run(capsys):
     assert 0.2 < namespace["centre"][0][1] < 2.1  # the resting crate, then the twisted box
     out = capsys.readouterr().out
     assert "True" in out and "15 31 True" in out
+    assert "0.64\n[0. 2.]" in out  # restitution: e² of the drop; a ball passes its velocity on

@@ -41,21 +41,25 @@ def test_rope_bridge_catches_the_crates():
     assert lengths.max() < 0.2  # ropes between neighbouring planks hold (rest ~0.07 m)
 
 
-def test_pendulums_keep_their_strings_and_pass_the_swing_on():
+def test_pendulums_pass_the_blow_to_the_last_ball():
     scene = load_scene("pendulums")
-    world = scene.bodies["cradle"].world
-    strings = scene.bodies["cradle"].lines
+    body = scene.bodies["cradle"]
+    world = body.world
+    strings = body.lines
     rest = np.linalg.norm(world.position[strings[:, 1]] - world.position[strings[:, 0]], axis=1)
-    last = scene.bodies["cradle"].boxes[-1][0]
-    start, _ = world.transforms()
-    moved = 0.0
-    for _ in range(round(1.5 * scene.fps)):
+    balls = [particle for particle, _, _ in body.spheres]
+    start = world.position[balls].copy()
+    out = np.zeros(len(balls))
+    for _ in range(round(1.0 * scene.fps)):  # the strike at 0.5 s, the last ball's swing
         scene.advance()
-        centre, _ = world.transforms()
-        moved = max(moved, np.linalg.norm(centre[last] - start[last]))
+        out = np.maximum(out, np.linalg.norm(world.position[balls] - start, axis=1))
     now = np.linalg.norm(world.position[strings[:, 1]] - world.position[strings[:, 0]], axis=1)
     np.testing.assert_allclose(now, rest, rtol=1e-3)
-    assert moved > 0.05  # the strike reached the far end of the row
+    # A real cradle: the last ball swings out as far as the first was pulled back
+    # (0.77 m along x from 50°; measured 0.766 m), the middle ones stay nearly still
+    # (measured: 4 mm, the push of the position pass through the row).
+    assert out[-1] > 0.7
+    assert out[1:-1].max() < 0.02
 
 
 def test_box_tower_stands_until_knocked_over():

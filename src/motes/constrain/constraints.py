@@ -130,7 +130,7 @@ class ConstraintBuilder:
         ends = np.concatenate([triples[:, [1, 2, 0]], np.full((m, 2), -1, np.int64)], axis=1)
         return self._add(ends, ANGLE, np.cos(lo), np.cos(hi), stiffness, compliance)
 
-    def add_hinge_sides(self, rows, orientation, offset=0.0, *, stiffness=1.0):
+    def add_hinge_sides(self, rows, orientation, offset=0.0, *, stiffness=1.0, recovery=3.0):
         """Keep hinges from bending backwards; ``rows`` are ``(i, k, l, r, j)``.
 
         ``i -> k`` is the bone before the joint ``k`` (a thigh), ``l -> r`` the hinge
@@ -139,6 +139,8 @@ class ConstraintBuilder:
         ``orientation`` (+1 or -1 per row) picks the forbidden side
         (``World.add_hinge_sides`` chooses it from the current pose). Where the bone is
         within 30° of the axis the plane is ill-defined and the limit rests.
+        A violation present at the start of a step is undone at no more than
+        ``recovery`` [m/s] (> 0; see :mod:`.kernels`).
         """
         rows = _pairs("rows", rows, 5, distinct=False)
         if (
@@ -152,8 +154,9 @@ class ConstraintBuilder:
         sign = np.broadcast_to(np.asarray(orientation, dtype=np.float64), (m,)).copy()
         if not np.all(np.abs(sign) == 1.0):
             raise ValueError("orientation must be +1 or -1")
+        speed = check.positive("recovery", recovery)
         ends = rows[:, [0, 4, 1, 2, 3]]  # i, j, k, l, r: j is the moved end, k the joint
-        return self._add(ends, SIDE, lo, sign, stiffness, 0.0)
+        return self._add(ends, SIDE, lo, sign * speed, stiffness, 0.0)
 
     def build(self, particle_count: int) -> ConstraintSet:
         """The coloured, compiled-ready set over ``particle_count`` particles."""
@@ -235,6 +238,7 @@ class ConstraintSet:
         *,
         sqrt_approximation: bool = False,
         previous: np.ndarray | None = None,
+        shake: bool | None = None,
     ) -> None:
         """One relaxation sweep over every constraint, in place.
 
@@ -250,10 +254,15 @@ class ConstraintSet:
             Jakobsen's square-root-free projection for rigid sticks.
         previous : (3, n) float64 array, optional
             Positions at the start of the step [m]: given, distance constraints project
-            along their direction there (SHAKE; see :mod:`.kernels`).
+            along their direction there (SHAKE; see :mod:`.kernels`) unless ``shake`` is
+            False, and hinge side limits recover old violations at their recovery speed.
+        shake : bool, optional
+            Default: whether ``previous`` is given.
         """
-        shake = previous is not None
-        q = previous if shake else position
+        shake = previous is not None if shake is None else bool(shake)
+        if shake and previous is None:
+            raise ValueError("shake needs the previous positions")
+        q = position if previous is None else previous
         relax_sweep(
             position[0],
             position[1],

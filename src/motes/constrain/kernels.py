@@ -34,10 +34,16 @@ limits always use the current direction.
 A hinge side limit (``SIDE``) keeps a joint from bending backwards, which an angle
 limit cannot tell from bending forwards: with the bone ``i -> k`` (thigh) and the hinge
 axis ``l -> r`` (hip to hip), ``n = σ (x_k - x_i) × (x_r - x_l)`` with an orientation
-σ = ±1 (column ``hi``), and the particle ``j`` (ankle) is kept where
-``(x_j - x_k) · n̂ <= lo`` by moving ``j`` alone along ``n̂`` (a one-sided temporary
-constraint in Jakobsen's sense; moving the joint too fought the angle limits that meet
-there).
+σ = ±1, and the particle ``j`` (ankle) is kept where ``(x_j - x_k) · n̂ <= lo``
+(a one-sided temporary constraint in Jakobsen's sense). Column ``hi`` holds ``σ v_r``.
+The violation is shared by ``j`` and the joint ``k`` by inverse mass (moving ``j`` alone
+pushed the limb without a reaction: momentum from nowhere). A violation already there
+at the start of the step (``q``) is undone at no more than the recovery speed ``v_r``:
+it appears when the bone leaves the 30° cone around the axis where the limit rests, or
+when contacts held the limb past the plane, and undoing it in one step is a velocity of
+``violation / h`` (a knee woke up 0.2 m past its plane was thrown back at 13 m/s and
+more). Without previous positions (``relax`` of a static set) ``q`` is the current
+position and a side limit moves ``v_r h`` per sweep.
 
 With ``sqrt_approximation`` a rigid (``α = 0``) distance constraint replaces the exact
 ``(|d| - r)/|d|`` by Jakobsen's square-root-free ``(|d|^2 - r^2)/(|d|^2 + r^2)``, its
@@ -58,11 +64,12 @@ from .._jit import BLOCK, device, parallel_kernel, serial_kernel
 DISTANCE = 0
 ANGLE = 1
 SIDE = 2
+RECOVER = 10.0
 
 
 @device
-def _project_side(c, px, py, pz, inv_mass, ends, lo, hi, stiffness):
-    """Keep j on one side of a hinge (see the module docstring); moves j only."""
+def _project_side(c, px, py, pz, qx, qy, qz, inv_mass, ends, lo, hi, stiffness, lam, dt):
+    """Keep j on one side of a hinge (see the module docstring); moves j and k."""
     i = ends[c, 0]
     j = ends[c, 1]
     k = ends[c, 2]
@@ -79,16 +86,74 @@ def _project_side(c, px, py, pz, inv_mass, ends, lo, hi, stiffness):
     a2 = ax * ax + ay * ay + az * az
     if norm * norm <= 0.25 * b2 * a2:
         return  # bone and axis within 30° of parallel: the plane is ill-defined
-    # hi holds the orientation (+1 or -1): which side of the plane is forbidden.
-    nx, ny, nz = hi[c] * nx / norm, hi[c] * ny / norm, hi[c] * nz / norm
+    # hi holds orientation × recovery speed: its sign picks the forbidden side.
+    sign = 1.0 if hi[c] > 0.0 else -1.0
+    nx, ny, nz = sign * nx / norm, sign * ny / norm, sign * nz / norm
     side = (px[j] - px[k]) * nx + (py[j] - py[k]) * ny + (pz[j] - pz[k]) * nz - lo[c]
-    if side <= 0.0 or inv_mass[j] <= 0.0:
+    if side <= 0.0:
         return
-    # Only j moves: moving the joint too disturbs the angle limits meeting there.
-    s = stiffness[c] * side
-    px[j] -= s * nx
-    py[j] -= s * ny
-    pz[j] -= s * nz
+    # Where j already was past the plane at the start of the step (the limit just woke
+    # up as the bone left the axis, or contacts held it there), only ``recover`` of that
+    # is undone per step: undoing all of it in one step is a velocity of violation / h.
+    # The side at the start is measured across the plane of the start (a plane swept
+    # past j by the bone turning is a new violation, undone in full), unless the limit
+    # was resting then (bone near the axis): then the current plane wakes it up.
+    ux, uy, uz = qx[k] - qx[i], qy[k] - qy[i], qz[k] - qz[i]
+    vx, vy, vz = qx[right] - qx[left], qy[right] - qy[left], qz[right] - qz[left]
+    mx = uy * vz - uz * vy
+    my = uz * vx - ux * vz
+    mz = ux * vy - uy * vx
+    m2 = mx * mx + my * my + mz * mz
+    if m2 > 0.25 * (ux * ux + uy * uy + uz * uz) * (vx * vx + vy * vy + vz * vz):
+        m = sign / np.sqrt(m2)
+        mx, my, mz = m * mx, m * my, m * mz
+    else:
+        mx, my, mz = nx, ny, nz
+    before = (qx[j] - qx[k]) * mx + (qy[j] - qy[k]) * my + (qz[j] - qz[k]) * mz - lo[c]
+    allowed = max(before - abs(hi[c]) * dt, 0.0)
+    if side <= allowed:
+        return
+    # The limit as a bend of the joint: to first order, moving j by -δn lowers the side
+    # by δ, moving i by -δn by c δ and k by +δn by (1 + c) δ, where
+    # c = (x_j - x_k)·b⊥/|b⊥|² with b⊥ the bone's part perpendicular to the axis (the
+    # bone turns the plane about the axis). The gradients sum to zero: no net momentum,
+    # and the reaction turns the bone before the joint. c is near -1 for a folded joint,
+    # where moving k no longer helps (clamping c at 0 lifted folded knees off the
+    # ground step after step).
+    sx, sy, sz = px[j] - px[k], py[j] - py[k], pz[j] - pz[k]
+    sb = sx * bx + sy * by + sz * bz
+    sa = sx * ax + sy * ay + sz * az
+    ab = ax * bx + ay * by + az * bz
+    c_i = (a2 * sb - sa * ab) / (norm * norm)
+    wj = inv_mass[j]
+    wi = inv_mass[i] * c_i * c_i
+    wk = inv_mass[k] * (1.0 + c_i) * (1.0 + c_i)
+    w = wj + wi + wk
+    if w <= 0.0:
+        return
+    # Fade in from 30° to 45° between bone and axis: near the axis the plane turns fast
+    # (as 1/sin) and a plane swept past j in one step is not a bend of the joint.
+    fade = min((norm / np.sqrt(b2 * a2) - 0.5) / (np.sqrt(0.5) - 0.5), 1.0)
+    # The step's correction budget is the violation found the first time (kept in lam,
+    # offset by 1 so that 0 means unset): contacts that push j back through the plane
+    # in later iterations would otherwise pump the joint a little further each time
+    # (a foot held by the ground threw the knee at 20 m/s).
+    if lam[c] == 0.0:
+        lam[c] = 1.0 + (side - allowed)
+    amount = min(side - allowed, lam[c] - 1.0)
+    if amount <= 0.0:
+        return
+    lam[c] -= amount
+    s = fade * stiffness[c] * amount / w
+    px[j] -= inv_mass[j] * s * nx
+    py[j] -= inv_mass[j] * s * ny
+    pz[j] -= inv_mass[j] * s * nz
+    px[i] -= inv_mass[i] * c_i * s * nx
+    py[i] -= inv_mass[i] * c_i * s * ny
+    pz[i] -= inv_mass[i] * c_i * s * nz
+    px[k] += inv_mass[k] * (1.0 + c_i) * s * nx
+    py[k] += inv_mass[k] * (1.0 + c_i) * s * ny
+    pz[k] += inv_mass[k] * (1.0 + c_i) * s * nz
 
 
 @device
@@ -113,7 +178,9 @@ def _project(
     shake,
 ):
     if kind[c] == SIDE:
-        _project_side(c, px, py, pz, inv_mass, ends, lo, hi, stiffness)
+        _project_side(
+            c, px, py, pz, qx, qy, qz, inv_mass, ends, lo, hi, stiffness, lam, np.sqrt(dt2)
+        )
         return
     i = ends[c, 0]
     j = ends[c, 1]

@@ -11,7 +11,10 @@ Each substep of ``h`` (Jakobsen 2001, "Advanced Character Physics", §2–4):
    (:mod:`motes.collide.contact`), the projection out of other bodies
    (:mod:`motes.collide.bodies`), and the pins. Constraints and collisions relax
    together, as in Jakobsen's loop, so a body resting on the ground is rigid and
-   outside it at once.
+   outside it at once; particles added with :meth:`World.add_sphere_contacts` are
+   pushed apart from each other (:mod:`motes.collide.spheres`);
+5. a velocity pass giving contacts with colliders and between spheres their
+   restitution (Müller et al. 2020, §3.5; :mod:`motes.collide.restitution`).
 
 Every stage is a compiled kernel over float64 arrays. Float64 because position Verlet
 stores the velocity as the difference of two positions: in float32, 10 m from the
@@ -30,6 +33,8 @@ from .. import _validate as check
 from .._jit import serial_threads
 from ..collide.bodies import body_contacts
 from ..collide.contact import Detection, check_collider, pack, project_contacts
+from ..collide.restitution import restitute_contacts
+from ..collide.spheres import project_spheres, restitute_spheres
 from ..collide.swept import sweep_contacts
 from ..constrain import ConstraintBuilder, Pins
 from .kernels import verlet
@@ -104,6 +109,7 @@ class World:
         self._detections: list[Detection] = []
         self._bodies: list[dict] = []
         self._velocity_pending: list[tuple[np.ndarray, np.ndarray]] = []
+        self._spheres: dict[int, float] = {}  # sphere particle -> restitution
         self._built = None
         self.time = 0.0
         self._h = None
@@ -248,7 +254,7 @@ class World:
             compliance=compliance,
         )
 
-    def add_hinge_sides(self, rows, offset=0.0, *, stiffness=1.0):
+    def add_hinge_sides(self, rows, offset=0.0, *, stiffness=1.0, recovery=3.0):
         """Keep hinge joints bending one way only; rows ``(i, k, l, r, j)`` (see
         :meth:`motes.constrain.ConstraintBuilder.add_hinge_sides`). The side ``j`` is
         on now is the allowed one: build the body slightly bent the right way."""
@@ -259,7 +265,9 @@ class World:
         side = np.einsum("ij,ij->i", x[j] - x[k], n)
         orientation = np.where(side > 0, -1.0, 1.0)
         self._built = None
-        return self._constraints.add_hinge_sides(rows, orientation, offset, stiffness=stiffness)
+        return self._constraints.add_hinge_sides(
+            rows, orientation, offset, stiffness=stiffness, recovery=recovery
+        )
 
     def pin(self, indices, targets=None) -> None:
         """Hold particles at ``targets`` ((k, 3) [m]; default: where they are)."""
@@ -289,9 +297,29 @@ class World:
     def add_collider(self, collider, detection: Detection | str = Detection.POSTERIORI) -> None:
         """A plane, sphere, box, capsule or triangle mesh; ``detection`` is
         ``"posteriori"`` (after the move) or ``"priori"`` (swept; planes, boxes, meshes).
-        The collider's ``friction`` is the Coulomb mu of the depth-based friction."""
+        The collider's ``friction`` is the Coulomb mu of the depth-based friction; its
+        ``restitution`` is kept of the normal speed of a hit, found before the move
+        (swept) or after it (a velocity pass after the relaxation, see
+        :mod:`motes.collide.restitution`)."""
         self._detections.append(check_collider(collider, detection))
         self._colliders.append(collider)
+        self._built = None
+
+    def add_sphere_contacts(self, indices, restitution: float = 0.0) -> None:
+        """Let particles collide with each other as spheres of their radius.
+
+        Every pair among all particles added this way is tested (``O(k²)``: for tens to
+        hundreds of balls or bobs; see :mod:`motes.collide.spheres`). ``restitution`` in
+        [0, 1] is kept for the normal velocity of a pair (the smaller of the two).
+        """
+        idx = np.atleast_1d(np.asarray(indices))
+        if idx.size == 0 or not np.issubdtype(idx.dtype, np.integer):
+            raise ValueError("indices must be particle indices")
+        if idx.min() < 0 or idx.max() >= self.count:
+            raise ValueError(f"indices must be in [0, {self.count - 1}]")
+        e = check.unit_interval("restitution", restitution)
+        for i in idx.tolist():
+            self._spheres[int(i)] = e
         self._built = None
 
     def set_velocity(self, indices, velocity) -> None:
@@ -390,6 +418,8 @@ class World:
             return np.concatenate([b[key] for b in bodies]) if bodies else np.zeros(shape)
 
         table, tri, cell_start, cell_tris = pack(self._colliders, self._detections)
+        members = np.array(sorted(self._spheres), dtype=np.int64)
+        sphere_e = np.array([self._spheres[i] for i in members.tolist()], dtype=np.float64)
         self._built = {
             "constraints": self._constraints.build(n),
             "inv_mass": inv_mass,
@@ -413,6 +443,10 @@ class World:
             "swept": bool(table[:, 3].any()) if len(table) else False,
             "mesh": (tri, cell_start, cell_tris),
             "hits": np.zeros(n, dtype=np.int64),
+            "spheres": members,
+            "sphere_restitution": sphere_e,
+            "bounce": bool(len(table) and table[:, 2].any()) or bool(sphere_e.any()),
+            "before": np.zeros((3, n)),
         }
         # Body rotations warm-start the compiled refinement (see collide.bodies).
         self._built["rotation"] = np.ascontiguousarray(self.transforms()[1])
@@ -474,6 +508,22 @@ class World:
             if previous_threads:
                 numba.set_num_threads(previous_threads)
 
+    def _restitute(self, s, h) -> None:
+        """Velocity pass (Müller et al. 2020, §3.5): restitution of the contacts."""
+        x, q, before = self._position, self._previous, s["before"]
+        rest = 2.0 * float(np.linalg.norm(self.gravity)) * h * h  # 2 |g| h, times h
+        if len(s["table"]):
+            tri, cell_start, cell_tris = s["mesh"]
+            restitute_contacts(
+                *x, *q, *before, self.radius, s["inv_mass"], s["table"],
+                tri, cell_start, cell_tris, rest,
+            )  # fmt: skip
+        if len(s["spheres"]) > 1:
+            restitute_spheres(
+                *x, *q, *before, s["inv_mass"], self.radius, s["spheres"],
+                s["sphere_restitution"], rest,
+            )  # fmt: skip
+
     def _substep(self, s, h) -> None:
         x, q = self._position, self._previous
         for idx, v in self._velocity_pending:
@@ -485,6 +535,8 @@ class World:
         verlet(*x, *q, inv_mass, g[0], g[1], g[2], math.exp(-self.damping * h), h * h)
         if s["swept"]:
             sweep_contacts(*x, *q, self.radius, inv_mass, table, tri, cell_start, cell_tris, hits)
+        if s["bounce"]:
+            s["before"][:] = x  # for the velocity pass (restitution)
         constraints = s["constraints"]
         constraints.reset_multipliers()
         for _ in range(self.iterations):
@@ -494,12 +546,15 @@ class World:
                     inv_mass,
                     h,
                     sqrt_approximation=self.sqrt_approximation,
-                    previous=q if self.projection == "shake" else None,
+                    previous=q,
+                    shake=self.projection == "shake",
                 )
             if len(table):
                 project_contacts(
                     *x, *q, self.radius, inv_mass, table, tri, cell_start, cell_tris, hits
                 )
+            if len(s["spheres"]) > 1:
+                project_spheres(*x, inv_mass, self.radius, s["spheres"], hits)
             if s["solid"]:
                 body_contacts(
                     *x,
@@ -523,5 +578,7 @@ class World:
                 )
             if s["pins"] is not None:
                 s["pins"].apply(x)
+        if s["bounce"]:
+            self._restitute(s, h)
         self._h = h
         self.time += h

@@ -6,7 +6,8 @@ placed by their body transforms, sticks and ropes as lines, heads, bobs and proj
 as spheres. The scene's shared ``[[collider]]`` objects (a ground plane) collide with
 every particle of the world.
 
-Keys every type reads: ``iterations`` (relaxation iterations, default 10),
+Keys every type reads: ``iterations`` (relaxation iterations, default 10), ``substeps``
+(world substeps per scene step, default 1),
 ``projection`` (``"shake"`` or ``"jakobsen"``), ``damping`` [1/s] and ``gravity``.
 """
 
@@ -101,6 +102,7 @@ def _world(table: Table, context: BuildContext) -> rigid.World:
         gravity=table.get("gravity", vector(), (0.0, -9.81, 0.0)),
         damping=table.get("damping", number(0.0), 0.0),
         iterations=table.get("iterations", integer(1, 200), 10),
+        substeps=table.get("substeps", integer(1, 1000), 1),
         projection=table.get("projection", one_of("shake", "jakobsen"), "shake"),
     )
     for collider in context.colliders:
@@ -215,44 +217,37 @@ def rope_bridge(table: Table, context: BuildContext) -> RigidScene:
 
 @register("pendulums")
 def pendulums(table: Table, context: BuildContext) -> RigidScene:
-    """A row of box bobs on V-shaped strings, the first pulled back (Newton's cradle
-    style: the bobs strike each other through body contacts, inelastically)."""
+    """A Newton's cradle: a row of sphere bobs on V-shaped strings, the first pulled
+    back. The bobs collide as spheres with restitution (a velocity pass after the
+    relaxation), hung a little apart so that they meet pair by pair and the blow passes
+    down the row to the last bob (see :mod:`motes.collide.spheres`)."""
     world = _world(table, context)
     count = table.get("count", integer(1, 20), 5)
     length = table.get("length", positive(), 1.0)
     bob = table.get("bob_size", positive(), 0.2)
     release = math.radians(table.get("release_angle", number(0.0, 170.0), 50.0))
     top = table.get("height", positive(), 2.0)
+    gap = table.get("gap", number(0.0), 0.003)
+    restitution = table.get("restitution", number(0.0, 1.0), 1.0)
     scene = RigidScene(world, line_color=(0.85, 0.85, 0.8), line_width=2.0)
-    strings = []
+    strings, bobs = [], []
     for k in range(count):
-        x = (k - (count - 1) / 2) * bob * 1.001
+        x = (k - (count - 1) / 2) * (bob + gap)
         angle = -release if k == 0 else 0.0
         pivot = np.array([x, top, 0.0])
         centre = pivot + length * np.array([math.sin(angle), -math.cos(angle), 0.0])
-        rot = np.array(
-            [
-                [math.cos(angle), -math.sin(angle), 0],
-                [math.sin(angle), math.cos(angle), 0],
-                [0, 0, 1],
-            ]
-        )
-        body = world.add_body(rigid.BodyShape.box(centre, (bob,) * 3, 1.0, rotation=rot))
+        particle = int(world.add_particles([centre], mass=1.0, radius=bob / 2)[0])
         tint = (0.8, 0.15, 0.1) if k == 0 else (0.8, 0.8, 0.85)
-        scene.boxes.append((body.index, np.full(3, bob), tint))
+        scene.spheres.append((particle, bob / 2, tint))
         anchors = world.add_particles(
             pivot + np.array([[0, 0, -0.5 * length], [0, 0, 0.5 * length]])
         )
         world.pin(anchors)
-        # Strings from two anchors to the bob's top corners (corners 2 and 6 / 3 and 7).
-        pairs = [
-            [anchors[0], body.particles[2]],
-            [anchors[1], body.particles[6]],
-            [anchors[0], body.particles[3]],
-            [anchors[1], body.particles[7]],
-        ]
-        world.add_sticks(pairs)
+        pairs = [[anchors[0], particle], [anchors[1], particle]]
+        world.add_sticks(pairs)  # the V keeps each bob swinging in the x-y plane
         strings += pairs
+        bobs.append(particle)
+    world.add_sphere_contacts(bobs, restitution=restitution)
     scene.lines = np.array(strings)
     scene.static.append(
         geometry.Box(
