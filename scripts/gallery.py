@@ -25,7 +25,7 @@ STILL_AT = {
     "fireworks": 0.5,
     "curtain": 0.85,
     "hair": 0.35,
-    "ragdoll_stairs": 0.25,
+    "ragdoll_stairs": 0.2,
 }
 
 

@@ -101,3 +101,17 @@ def test_an_empty_rigid_body_is_an_error():
     empty = SCENE.split("  [[body.box]]")[0]
     with pytest.raises(SceneError, match="at least one of: box"):
         load_scene(empty)
+
+
+def test_balls_collide_with_each_other():
+    balls = (
+        '[[body]]\nname = "pool"\ntype = "rigid"\ngravity = [0, 0, 0]\n'
+        "  [[body.ball]]\n  center = [-0.5, 1, 0]\n  velocity = [1, 0, 0]\n  restitution = 1\n"
+        "  [[body.ball]]\n  center = [0.5, 1, 0]\n  restitution = 1\n"
+    )
+    scene = load_scene(SCENE.split("[[collider]]")[0] + balls)
+    for _ in range(scene.frame_count):
+        scene.advance()
+    world = scene.bodies["pool"].world
+    # Equal masses, elastic, head-on: the first stops and the second takes its velocity.
+    np.testing.assert_allclose(world.velocity[:, 0], [0.0, 1.0], atol=1e-6)

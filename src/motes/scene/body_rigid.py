@@ -7,8 +7,9 @@ as spheres. The scene's shared ``[[collider]]`` objects (a ground plane) collide
 every particle of the world.
 
 Keys every type reads: ``iterations`` (relaxation iterations, default 10), ``substeps``
-(world substeps per scene step, default 1),
-``projection`` (``"shake"`` or ``"jakobsen"``), ``damping`` [1/s] and ``gravity``.
+(world substeps per scene step, default 1), ``projection`` (``"shake"`` or
+``"jakobsen"``), ``damping`` [1/s], ``gravity`` and ``detection`` (``"posteriori"`` or
+``"priori"``: how the shared colliders are found).
 """
 
 from __future__ import annotations
@@ -95,7 +96,9 @@ class RigidScene(Body):
         return out
 
 
-def _world(table: Table, context: BuildContext) -> rigid.World:
+def read_world(table: Table, context: BuildContext) -> rigid.World:
+    """The world every rigid type reads (keys listed in the module docstring), with the
+    scene's shared colliders added (found after the move, or swept: ``detection``)."""
     world = build(
         table.path,
         rigid.World,
@@ -105,8 +108,9 @@ def _world(table: Table, context: BuildContext) -> rigid.World:
         substeps=table.get("substeps", integer(1, 1000), 1),
         projection=table.get("projection", one_of("shake", "jakobsen"), "shake"),
     )
+    detection = table.get("detection", one_of("posteriori", "priori"), "posteriori")
     for collider in context.colliders:
-        build(table.path, world.add_collider, collider)  # errors name the body
+        build(table.path, world.add_collider, collider, detection)  # errors name the body
     return world
 
 
@@ -118,7 +122,7 @@ def _step_box(center, size, tint):
 @register("ragdoll_stairs")
 def ragdoll_stairs(table: Table, context: BuildContext) -> RigidScene:
     """A ragdoll thrown down a staircase."""
-    world = _world(table, context)
+    world = read_world(table, context)
     steps = table.get("steps", integer(1, 40), 6)
     rise = table.get("step_height", positive(), 0.2)
     run = table.get("step_depth", positive(), 0.3)
@@ -154,7 +158,7 @@ def ragdoll_stairs(table: Table, context: BuildContext) -> RigidScene:
 @register("rope_bridge")
 def rope_bridge(table: Table, context: BuildContext) -> RigidScene:
     """Planks hung between two anchors by ropes, with boxes falling on them."""
-    world = _world(table, context)
+    world = read_world(table, context)
     planks = table.get("planks", integer(2, 60), 12)
     span = table.get("span", positive(), 4.0)
     height = table.get("height", positive(), 1.5)
@@ -221,7 +225,7 @@ def pendulums(table: Table, context: BuildContext) -> RigidScene:
     back. The bobs collide as spheres with restitution (a velocity pass after the
     relaxation), hung a little apart so that they meet pair by pair and the blow passes
     down the row to the last bob (see :mod:`motes.collide.spheres`)."""
-    world = _world(table, context)
+    world = read_world(table, context)
     count = table.get("count", integer(1, 20), 5)
     length = table.get("length", positive(), 1.0)
     bob = table.get("bob_size", positive(), 0.2)
@@ -260,7 +264,7 @@ def pendulums(table: Table, context: BuildContext) -> RigidScene:
 @register("box_tower")
 def box_tower(table: Table, context: BuildContext) -> RigidScene:
     """A tower of boxes knocked over by a heavy box thrown at it."""
-    world = _world(table, context)
+    world = read_world(table, context)
     levels = table.get("levels", integer(1, 30), 6)
     size = table.get("box_size", positive(), 0.5)
     speed = table.get("projectile_speed", positive(), 12.0)
@@ -294,7 +298,7 @@ def box_tower(table: Table, context: BuildContext) -> RigidScene:
 def swept_vs_posteriori(table: Table, context: BuildContext) -> RigidScene:
     """Two fast projectiles at two thin walls: the left wall detects a priori (swept),
     the right a posteriori; relaunched every ``period`` seconds."""
-    world = _world(table, context)
+    world = read_world(table, context)
     speed = table.get("speed", positive(), 100.0)
     thickness = table.get("wall_thickness", positive(), 0.01)
     period = table.get("period", positive(), 0.25)

@@ -3,9 +3,10 @@
 The other rigid body types (:mod:`motes.scene.body_rigid`) are ready-made set-ups with a
 few knobs; this one lets a scene place its own boxes, tetrahedra, balls, ropes and
 ragdolls in one :class:`motes.rigid.World`, each with an initial velocity and a colour.
-They all collide with the scene's shared ``[[collider]]`` objects (after the move, or
-swept with ``detection = "priori"``) and with each other. Keys are documented in
-``docs/scene-format.md``.
+Every particle collides with the scene's shared ``[[collider]]`` objects (after the
+move, or swept with ``detection = "priori"``); solid bodies (boxes, tetrahedra, the
+ragdolls' torsos) collide with each other, and balls with each other. Ropes and balls
+pass through solid bodies. Keys are documented in ``docs/scene-format.md``.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 from .. import rigid
 from ..render import geometry
 from .bodies import BuildContext, register
-from .body_rigid import RigidScene
+from .body_rigid import RigidScene, read_world
 from .parts import euler_rotation
 from .schema import SceneError, Table, build, color, integer, number, one_of, positive, vector
 
@@ -94,6 +95,7 @@ def _ball(table: Table, world, scene: RigidAssembly, k: int) -> None:
         radius,
     )
     _launch(table, world, [particle])
+    world.add_sphere_contacts([particle], table.get("restitution", number(0.0, 1.0), 0.5))
     scene.spheres.append((int(particle), radius, _tint(table, (0.8, 0.2, 0.15))))
 
 
@@ -152,17 +154,7 @@ _PARTS = {
 @register("rigid")
 def rigid_world(table: Table, context: BuildContext) -> RigidAssembly:
     """A rigid world of boxes, tetrahedra, balls, ropes and ragdolls."""
-    world = build(
-        table.path,
-        rigid.World,
-        gravity=table.get("gravity", vector(), (0.0, -9.81, 0.0)),
-        damping=table.get("damping", number(0.0), 0.0),
-        iterations=table.get("iterations", integer(1, 200), 10),
-        projection=table.get("projection", one_of("shake", "jakobsen"), "shake"),
-    )
-    detection = table.get("detection", one_of("posteriori", "priori"), "posteriori")
-    for collider in context.colliders:
-        build(table.key_path("detection"), world.add_collider, collider, detection)
+    world = read_world(table, context)
     scene = RigidAssembly(world)
     for key, add in _PARTS.items():
         for k, part in enumerate(table.tables(key)):
