@@ -199,3 +199,39 @@ def test_bad_mesh_input():
         Cloth(np.zeros((3, 3)), [[0, 1, 2]])
     with pytest.raises(ValueError, match="strictly increasing"):
         Keyframes([1.0, 0.0], [[0, 0, 0], [1, 0, 0]])
+
+
+def test_cloth_drapes_over_a_triangle_mesh_and_never_enters_it():
+    # A roof: two slopes meeting in a ridge along z, y = 0.8 - 0.5 |x| for |x| <= 1.
+    vertices = [
+        [-1.0, 0.3, -1.0],
+        [0.0, 0.8, -1.0],
+        [0.0, 0.8, 1.0],
+        [-1.0, 0.3, 1.0],
+        [1.0, 0.3, -1.0],
+        [1.0, 0.3, 1.0],
+    ]
+    faces = [[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]]
+    roof = mo.TriangleMeshCollider((np.array(vertices), np.array(faces)), friction=0.8)
+    rotation = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])  # lie flat, facing up
+    cloth = Cloth.grid(
+        20,
+        20,
+        size=(1.0, 1.0),
+        origin=(-0.5, 1.0, -0.5),
+        rotation=rotation,
+        colliders=[roof],
+        thickness=0.01,
+    )
+    for _ in range(90):
+        cloth.step(1 / 60)
+        x, y = cloth.position[0], cloth.position[1]
+        # Projected out every step: at least the thickness above the roof (round-off).
+        assert np.all(y >= 0.8 - 0.5 * np.abs(x) + 0.01 - 1e-9)
+    # Held up on the ridge; the sides have fallen along the slopes, below the ridge.
+    middle = cloth.grid_index(10, 10)[0]
+    assert cloth.position[1, middle] == pytest.approx(0.81, abs=0.02)
+    x, y = cloth.position[0], cloth.position[1]
+    edge = np.abs(x) > 0.45
+    assert edge.sum() >= 20 and y[edge].max() < 0.7
+    assert np.isfinite(cloth.velocity).all()

@@ -22,7 +22,11 @@ import numba
 import numpy as np
 
 from .. import _validate as check
+from ..collide import contact
 from ..collide.colliders import Collider, pack
+from ..collide.contact import project_contacts
+from ..collide.mesh import TriangleMeshCollider
+from ..collide.swept import sweep_contacts
 from ..forces.springs import Springs
 from ..integrate.implicit import ConstraintFilter, ImplicitEuler, SolveReport, solver_threads
 from . import topology
@@ -87,7 +91,9 @@ class Cloth:
     wind : Airflow, optional
         Aerodynamic drag and lift per triangle.
     colliders : sequence of Collider
-        Planes, spheres, boxes; their friction and restitution apply.
+        Planes, spheres, boxes (their friction and restitution apply) and
+        :class:`~motes.collide.TriangleMeshCollider` meshes (projected out with depth
+        friction, as in a rigid world; the mesh's own ``thickness`` adds to the cloth's).
     thickness : float
         Distance >= 0 [m] kept between particles and collider surfaces.
     strain_limit : float or None
@@ -174,6 +180,10 @@ class Cloth:
         for c in self.colliders:
             if not isinstance(c, Collider):
                 raise TypeError(f"colliders must hold Collider objects, got {c!r}")
+        # Planes, spheres and boxes go through the particle kernel's geometry; triangle
+        # meshes through the rigid world's gridded closest-point projection.
+        self._shapes = [c for c in self.colliders if not isinstance(c, TriangleMeshCollider)]
+        self._meshes = [c for c in self.colliders if isinstance(c, TriangleMeshCollider)]
         self.thickness = check.non_negative("thickness", thickness)
         self.strain_limit = (
             None if strain_limit is None else check.positive("strain_limit", strain_limit)
@@ -346,6 +356,7 @@ class Cloth:
             target = anchor + w * path(self.time + h)[:, None]
             self.constraints.velocity[:, idx] = (target - self.position[:, idx]) / h
         external = self.external_force()
+        start = self.position.copy() if self._meshes else None
         if self.scheme == Scheme.IMPLICIT_EULER:
             self.last_report = self.solver.step(
                 self.position,
@@ -363,8 +374,10 @@ class Cloth:
         free = ~self.pinned
         if self.strain_limit is not None:
             self._limit_strain(h, free)
-        if self.colliders:
+        if self._shapes:
             self._collide(h, free)
+        if self._meshes:
+            self._collide_meshes(h, free, start)
         self.time += h
 
     def _explicit(self, h: float, external: np.ndarray) -> None:
@@ -392,10 +405,31 @@ class Cloth:
         """Strain-limiting passes the latest step took (0 without a limit)."""
         return 0 if self._limiter is None else self._limiter.passes
 
+    def _collide_meshes(self, h: float, free: np.ndarray, start: np.ndarray) -> None:
+        """Triangle meshes are thin shells, which a particle can cross within one step:
+        each path ``start -> position`` is swept against them first (stopping at the first
+        hit and reflecting with the mesh's restitution,
+        :func:`motes.collide.swept.sweep_contacts`), then what still lies within
+        ``thickness`` is projected out with depth friction
+        (:func:`motes.collide.contact.project_contacts`). A particle that touched takes
+        the velocity of its corrected travel."""
+        table, tri, cell_start, cell_tris = contact.pack(
+            self._meshes, [contact.Detection.PRIORI] * len(self._meshes)
+        )
+        previous = start.copy()  # rewritten by the sweep for particles that hit
+        hits = np.zeros(self.n, dtype=np.int64)
+        radius = np.full(self.n, self.thickness)
+        movable = free.astype(np.float64)
+        mesh_data = (table, tri, cell_start, cell_tris, hits)
+        sweep_contacts(*self.position, *previous, radius, movable, *mesh_data)
+        project_contacts(*self.position, *previous, radius, movable, *mesh_data)
+        touched = hits > 0
+        self.velocity[:, touched] = (self.position[:, touched] - previous[:, touched]) / h
+
     def _collide(self, h: float, free: np.ndarray) -> None:
-        table, structure = pack(self.colliders)
+        table, structure = pack(self._shapes)
         table = table.copy()
-        for row, c in enumerate(self.colliders):
+        for row, c in enumerate(self._shapes):
             grow = -self.thickness if c.inside else self.thickness
             if structure[row][0] == 0:  # plane: move it out along its normal
                 table[row, 5] += self.thickness
