@@ -7,7 +7,17 @@ import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
 
-from motes.fluids import Fluid, FluidModel, Phase, Plane, Sphere, Tank, _kernels, lattice
+from motes.fluids import (
+    Fluid,
+    FluidModel,
+    MeshWall,
+    Phase,
+    Plane,
+    Sphere,
+    Tank,
+    _kernels,
+    lattice,
+)
 from motes.spatial import UniformGrid
 
 
@@ -294,3 +304,29 @@ def test_vorticity_confinement_puts_energy_back_into_a_decaying_vortex():
         default.step(1 / 60)
     assert_array_equal(zero.positions, default.positions)
     assert_array_equal(zero.velocities, default.velocities)
+
+
+def test_a_triangle_mesh_trough_holds_falling_water():
+    # A V-shaped trough y = |x| for |x| <= 0.3, closed at its ends by a tank's walls
+    # (whose floor, far below at y = -1, is where water crossing the mesh would land).
+    vertices = np.array(
+        [[-0.3, 0.3, -0.15], [0.0, 0.0, -0.15], [0.0, 0.0, 0.15], [-0.3, 0.3, 0.15],
+         [0.3, 0.3, -0.15], [0.3, 0.3, 0.15]]
+    )  # fmt: skip
+    faces = np.array([[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]])
+    trough = MeshWall((vertices, faces), friction=0.2)
+    model = FluidModel(
+        spacing=0.025, xsph=0.05,
+        boundaries=(Tank((-0.3, -1.0, -0.15), (0.3, 1.0, 0.15)), trough),
+    )  # fmt: skip
+    water = Fluid(model, lattice((-0.1, 0.35, -0.1), (0.1, 0.5, 0.1), 0.025))
+    mass = water.total_mass()
+    for _ in range(90):
+        water.step(1 / 60)
+        x, y = water.positions[0], water.positions[1]
+        # Never below the trough's surface (projected out to half a spacing above it).
+        assert np.all(y >= np.abs(x) - 1e-5), (y - np.abs(x)).min()
+    assert water.total_mass() == mass
+    assert np.isfinite(water.velocities).all()
+    # Settled into the bottom of the V.
+    assert water.positions[1].max() < 0.35

@@ -2,7 +2,7 @@
 (Müller, Charypar & Gross 2003), walls by signed distance, the lecture's viscosity,
 cohesion and adhesion (Akinci et al. 2013), friction, and non-mixing phases."""
 
-from .boundaries import Box, Plane, Sphere, Tank
+from .boundaries import Box, MeshWall, Plane, Sphere, Tank
 from .fluid import Fluid, FluidState, lattice
 from .model import FluidModel, Phase
 
@@ -11,6 +11,7 @@ __all__ = [
     "Fluid",
     "FluidModel",
     "FluidState",
+    "MeshWall",
     "Phase",
     "Plane",
     "Sphere",

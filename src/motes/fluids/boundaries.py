@@ -1,4 +1,5 @@
-"""Solid boundaries of a fluid, by signed distance: planes, tanks, boxes and spheres.
+"""Solid boundaries of a fluid, by signed distance: planes, tanks, boxes and spheres;
+and triangle meshes, by collision only (:class:`MeshWall`).
 
 Each boundary keeps fluid particles on its fluid side: the solver pushes a particle
 closer than its radius back to that distance (so no particle leaves a closed tank), counts
@@ -177,6 +178,42 @@ class Sphere(Boundary):
         row[A0 : A2 + 1] = self.center
         row[C] = self.radius
         return [row]
+
+
+class MeshWall(Boundary):
+    """A triangle mesh the fluid cannot cross: collision only.
+
+    Unlike the signed-distance walls, a mesh does not count toward the density of the
+    particles beside it and has no adhesion: after the constraint solve, each particle's
+    path over the step is swept against the mesh (stopped at the first hit, bounced with
+    ``restitution``), then what lies within half a spacing (plus ``thickness``) is
+    projected out with depth friction: the rigid world's kernels
+    (:mod:`motes.collide.swept`, :mod:`motes.collide.contact`). Particles beside a
+    mesh therefore see a density deficit and settle slightly closer to it than to a
+    signed-distance wall.
+
+    Parameters
+    ----------
+    mesh : TriangleMesh or (vertices (v, 3), faces (f, 3))
+        Triangles [m], thin shells seen from both sides.
+    thickness : float
+        Half-thickness of the shell >= 0 [m].
+    friction : float
+        Coulomb coefficient >= 0 of the depth friction.
+    restitution : float
+        Kept fraction of the normal speed at a swept hit, in [0, 1].
+    """
+
+    def __init__(self, mesh, *, thickness: float = 0.0, friction: float = 0.0, restitution=0.0):
+        from ..collide.mesh import TriangleMeshCollider
+
+        super().__init__(friction=friction, friction_model="depth")
+        self.collider = TriangleMeshCollider(
+            mesh, thickness=thickness, friction=friction, restitution=restitution
+        )
+
+    def _shape_rows(self):
+        return np.zeros((0, ROW))
 
 
 def pack(boundaries) -> np.ndarray:

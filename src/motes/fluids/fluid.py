@@ -16,9 +16,12 @@ import numba
 import numpy as np
 
 from .. import _jit, _validate
+from ..collide.contact import Detection, project_contacts
+from ..collide.contact import pack as pack_colliders
+from ..collide.swept import sweep_contacts
 from ..spatial import UniformGrid
 from . import _kernels
-from .boundaries import pack
+from .boundaries import MeshWall, pack
 from .model import FluidModel
 
 
@@ -254,7 +257,10 @@ class Fluid:
         self.density_error = float(np.maximum(delta * inv_delta0 - 1.0, 0.0).mean())
 
         s.velocities = (predicted - s.positions) / np.float32(dt)
-        s.positions = predicted
+        start, s.positions = s.positions, predicted
+        meshes = [w.collider for w in m.boundaries if isinstance(w, MeshWall)]
+        if meshes:
+            self._collide_meshes(meshes, start, dt, radius)
         masses = d["mass"][s.phase].astype(np.float32)
         sigma = d["sigma"]
         coefficients = np.array(
@@ -282,3 +288,20 @@ class Fluid:
             walls = np.array([h, radius, dt, m.phases[0].rest_density * m.spacing])
             _kernels.boundary_velocity(*s.positions, *s.velocities, depth, rows, walls)
         self.time += dt
+
+    def _collide_meshes(self, meshes, start, dt: float, radius: float) -> None:
+        """Sweep each particle's path ``start -> position`` against the meshes, then
+        project out what lies within ``radius``; touched particles take the velocity of
+        their corrected travel (see :class:`~motes.fluids.boundaries.MeshWall`)."""
+        s, n = self.state, len(self)
+        table, tri, cell_start, cell_tris = pack_colliders(meshes, [Detection.PRIORI] * len(meshes))
+        # The collision kernels run in float64 (as in rigid worlds): one compiled version.
+        x = s.positions.astype(np.float64)
+        q = start.astype(np.float64)
+        hits = np.zeros(n, dtype=np.int64)
+        data = (np.full(n, radius), np.ones(n), table, tri, cell_start, cell_tris, hits)
+        sweep_contacts(*x, *q, *data)
+        project_contacts(*x, *q, *data)
+        touched = hits > 0
+        s.positions[:, touched] = x[:, touched]
+        s.velocities[:, touched] = (x[:, touched] - q[:, touched]) / dt
