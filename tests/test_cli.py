@@ -100,6 +100,7 @@ def test_progress_and_summary_unless_quiet(tmp_path, capsys):
         (["run", "fire", "-o", "out.avi"], "-o must end in .mp4, .gif or .png"),
         (["run", "fire", "-o", "no/such/dir/out.mp4"], "output directory does not exist"),
         (["run", "fire", "--export", "no/such/dir/c.npz"], "export directory does not exist"),
+        (["run", "pendulums", "--export", "c.npz"], "pendulums has only bodies (cradle)"),
     ],
 )
 def test_user_mistakes_exit_2_with_one_line(args, message, capsys, tmp_path, monkeypatch):

@@ -158,6 +158,12 @@ def _run(args) -> int:
         raise UserError(f"output directory does not exist: {output.parent}")
     if args.export and not Path(args.export).resolve().parent.is_dir():
         raise UserError(f"export directory does not exist: {Path(args.export).parent}")
+    if args.export and not scene.systems:
+        bodies = ", ".join(scene.bodies)
+        raise UserError(
+            f"--export caches particle systems; {scene.name} has only bodies ({bodies}), "
+            "which the cache does not hold"
+        )
 
     progress = Progress(frames, label=scene.name, enabled=not args.quiet)
     start = time.perf_counter()
