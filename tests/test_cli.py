@@ -165,7 +165,7 @@ def test_ctrl_c_keeps_a_playable_video_of_the_frames_so_far(tmp_path):
             process.communicate()
     message = (seen + err_text).decode()
     assert process.returncode == 130, message
-    written = int(re.search(r"interrupted after (\d+) frames", message).group(1))
+    written = int(re.search(r"holds (\d+) frames", message).group(1))
     assert written >= 5
     assert imageio_ffmpeg.count_frames_and_secs(str(out))[0] == written
     assert [p.name for p in tmp_path.iterdir()] == ["fire.mp4"]  # no temporary files left

@@ -189,7 +189,10 @@ def _run(args) -> int:
         except KeyboardInterrupt:
             interrupted = True
     if interrupted:
-        kept = f"; {output} holds them" if output is not None and done else ""
+        # Ctrl-C can land after a frame reached the output and before it was counted
+        # here: the writer's own count is what the file holds.
+        held = writer.frames_written if writer is not None else 0
+        kept = f"; {output} holds {held} frame{'s' * (held != 1)}" if held else ""
         print(f"motes: interrupted after {done} frames{kept}", file=sys.stderr)
         return 130
     if not args.quiet:
