@@ -18,6 +18,8 @@ so the flags are chosen once:
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numba
 import numpy as np
 from numba import njit
@@ -66,17 +68,19 @@ def block_bounds(block, n):
 SERIAL_BELOW = 8192
 
 
-def serial_threads(count: int) -> int:
-    """Switch to one thread when ``count`` < :data:`SERIAL_BELOW`.
+@contextmanager
+def threads_for(count: int, below: int = SERIAL_BELOW):
+    """Run the enclosed block on one thread when ``count`` < ``below``.
 
-    Returns the thread count to restore with ``numba.set_num_threads`` afterwards (0 when
-    nothing was changed). Results do not depend on it (kernels are block-parallel), only
-    the launch cost.
+    Results do not depend on it (kernels are block-parallel), only the launch cost. The
+    previous thread count is restored on leaving, exceptions included.
     """
-    if count >= SERIAL_BELOW:
-        return 0
     previous = numba.get_num_threads()
-    if previous == 1:
-        return 0
+    if count >= below or previous == 1:
+        yield
+        return
     numba.set_num_threads(1)
-    return previous
+    try:
+        yield
+    finally:
+        numba.set_num_threads(previous)

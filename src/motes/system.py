@@ -18,11 +18,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from . import _validate as check
-from ._jit import serial_threads
+from ._jit import threads_for
 from ._tracked import fingerprint
 from .collide.colliders import Collider, pack
 from .emit.emitter import Emitter
@@ -175,12 +174,8 @@ class ParticleSystem:
     def step(self, dt: float) -> None:
         """Advance the system by ``dt`` seconds (one frame)."""
         dt = check.positive("dt", dt)
-        restore = serial_threads(self.store.count)
-        try:
+        with threads_for(self.store.count):
             self._step(dt)
-        finally:
-            if restore:
-                numba.set_num_threads(restore)
         for child in self.children:
             child.step(dt)
 

@@ -18,17 +18,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import StrEnum
 
-import numba
 import numpy as np
 
 from .. import _validate as check
+from .._jit import threads_for
 from ..collide import contact
 from ..collide.colliders import Collider, pack
 from ..collide.contact import project_contacts
 from ..collide.mesh import TriangleMeshCollider
 from ..collide.swept import sweep_contacts
 from ..forces.springs import Springs
-from ..integrate.implicit import ConstraintFilter, ImplicitEuler, SolveReport, solver_threads
+from ..integrate.implicit import SERIAL_BELOW, ConstraintFilter, ImplicitEuler, SolveReport
 from . import topology
 from .drivers import Airflow, Keyframes
 from .kernels import (
@@ -344,12 +344,8 @@ class Cloth:
     def step(self, dt: float) -> None:
         """Advance by ``dt`` seconds."""
         h = check.positive("dt", dt)
-        restore = solver_threads(self.n)
-        try:
+        with threads_for(self.n, SERIAL_BELOW):
             self._step(h)
-        finally:
-            if restore:
-                numba.set_num_threads(restore)
 
     def _step(self, h: float) -> None:
         for idx, anchor, path, w in self._handles:

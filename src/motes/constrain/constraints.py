@@ -20,11 +20,10 @@ Two stiffness models, chosen per constraint:
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from .. import _validate as check
-from .._jit import serial_threads
+from .._jit import threads_for
 from .graph import color_constraints
 from .kernels import ANGLE, DISTANCE, SIDE, apply_pins, relax_sweep
 
@@ -299,17 +298,13 @@ class ConstraintSet:
         check_state(position, inv_mass, self.particle_count)
         iterations = check.integer("iterations", iterations, low=1)
         self.reset_multipliers()
-        threads = serial_threads(self.particle_count)
-        try:
+        with threads_for(self.particle_count):
             for _ in range(iterations):
                 self.sweep(
                     position, inv_mass, dt, sqrt_approximation=sqrt_approximation, previous=previous
                 )
                 if pins is not None:
                     pins.apply(position)
-        finally:
-            if threads:
-                numba.set_num_threads(threads)
 
     def lengths(self, position: np.ndarray) -> np.ndarray:
         """Current ``|x_j - x_i|`` of every constraint, in colour order [m]."""

@@ -17,6 +17,8 @@ Friction models against a boundary, for particles in contact with it:
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+
 import numpy as np
 
 from .. import _validate
@@ -29,7 +31,7 @@ KIND, SIGN, A0, A1, A2, B0, B1, B2, C, ADHESION, FRICTION_MODEL, FRICTION = rang
 ROW = 12
 
 
-class Boundary:
+class Boundary(ABC):
     """Base of the boundaries: adhesion and friction parameters, and packing.
 
     Parameters
@@ -59,8 +61,9 @@ class Boundary:
         rows[:, FRICTION] = self.friction
         return rows
 
+    @abstractmethod
     def _shape_rows(self) -> list:
-        raise NotImplementedError
+        """This boundary's packed rows before the shared columns are filled."""
 
 
 class Plane(Boundary):

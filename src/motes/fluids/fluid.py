@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from .. import _jit, _validate
@@ -192,13 +191,9 @@ class Fluid:
         """Advance by ``dt`` [s], in equal internal steps no longer than ``max_dt``."""
         dt = _validate.positive("dt", dt)
         count = max(1, math.ceil(dt / self.model.max_dt - 1e-9))
-        restore = _jit.serial_threads(len(self))
-        try:
+        with _jit.threads_for(len(self)):
             for _ in range(count):
                 self._step(dt / count)
-        finally:
-            if restore:
-                numba.set_num_threads(restore)
 
     def _step(self, dt: float) -> None:
         m, d, s = self.model, self.model.derived, self.state

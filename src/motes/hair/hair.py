@@ -16,15 +16,15 @@ stretch limit on the stretch springs, then collisions.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from .. import _validate as check
+from .._jit import threads_for
 from ..cloth.drivers import Keyframes
 from ..cloth.kernels import collide_kernel
 from ..cloth.strain import StrainLimiter
 from ..collide.colliders import Collider, Sphere, pack
-from ..integrate.implicit import ConstraintFilter, ImplicitEuler, SolveReport, solver_threads
+from ..integrate.implicit import SERIAL_BELOW, ConstraintFilter, ImplicitEuler, SolveReport
 from .bending import StencilSprings, angle_bending
 
 
@@ -276,12 +276,8 @@ class Hair:
     def step(self, dt: float) -> None:
         """Advance by ``dt`` seconds."""
         h = check.positive("dt", dt)
-        restore = solver_threads(self.n)
-        try:
+        with threads_for(self.n, SERIAL_BELOW):
             self._step(h)
-        finally:
-            if restore:
-                numba.set_num_threads(restore)
 
     def _step(self, h: float) -> None:
         r, c = self.head.pose(self.time + h)

@@ -40,7 +40,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from .. import _validate as check
@@ -61,18 +60,6 @@ _IDENTITY = np.eye(3).ravel()
 #: compete with the serial solve for the cores. Measured on the shared 2-core machine,
 #: 2,000 hair strands (20,000 particles): 38 ms per step on one thread, 105 ms on two.
 SERIAL_BELOW = 1 << 16
-
-
-def solver_threads(count: int) -> int:
-    """Switch to one thread when ``count`` < :data:`SERIAL_BELOW`; returns the thread
-    count to restore with ``numba.set_num_threads`` (0 when nothing changed)."""
-    if count >= SERIAL_BELOW:
-        return 0
-    previous = numba.get_num_threads()
-    if previous == 1:
-        return 0
-    numba.set_num_threads(1)
-    return previous
 
 
 class SolverError(RuntimeError):

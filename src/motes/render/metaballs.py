@@ -51,7 +51,7 @@ from .._jit import (
     device,
     parallel_kernel,
     serial_kernel,
-    serial_threads,
+    threads_for,
 )
 from .marching_cubes import _marching_cubes, spread_order
 from .mesh import TriangleMesh
@@ -599,15 +599,11 @@ class Metaballs:
             raise ValueError(
                 f"bounds must span at least one cell_size along each axis, got {shape}"
             )
-        previous = serial_threads(int(np.prod(shape)))
-        try:
+        with threads_for(int(np.prod(shape))):
             bins = self._bin(positions, strength, radius2, origin, spacing, shape)
             field = _field(bins, self.a, spacing, shape)
             vertices, faces = _marching_cubes(field, self.threshold, spacing, origin)
             normals = _gradient(bins, self.a, vertices, unit=True)
-        finally:
-            if previous:
-                numba.set_num_threads(previous)
         return TriangleMesh(vertices, faces, normals)
 
     # -- helpers --------------------------------------------------------------------------

@@ -71,15 +71,13 @@ objects. ACM Transactions on Graphics 2(2), 91-108.
 
 from __future__ import annotations
 
-from contextlib import contextmanager
 from dataclasses import dataclass
 from enum import StrEnum
 
-import numba
 import numpy as np
 
 from .. import _validate as check
-from .._jit import serial_threads
+from .._jit import threads_for
 from . import _footprint as fp
 from . import _splat_kernels as splat
 from . import _sprite_kernels as k
@@ -333,7 +331,7 @@ class SpriteRasterizer:
                 raise ValueError(f"{name} must be a C-contiguous float32 array")
         texture = _DUMMY_TEXTURE if style.texture is None else style.texture
         arrays = (positions, colors, radii, rotation, velocities)
-        with _threads_for(n):
+        with threads_for(n):
             drawn, general, fragments = self._project(frame, camera, arrays, texture)
             if drawn > general:
                 fast = self._sort_fast(frame, drawn - general)
@@ -341,7 +339,7 @@ class SpriteRasterizer:
                 binned, bins = self._bin_general(frame)
         # Below a few particles' worth of pixels, waking the thread pool (a dozen parallel
         # launches) costs more than the work.
-        with _threads_for(fragments // FRAGMENTS_PER_PARTICLE):
+        with threads_for(fragments // FRAGMENTS_PER_PARTICLE):
             if drawn > general:
                 self._draw_fast(frame, texture, *fast)
             if general:
@@ -478,17 +476,6 @@ def _particle_array(name: str, value, n: int | None, columns: int | None) -> np.
 #: Pixels of drawing work counted as one particle's by the one-thread rule (a sprite of
 #: about 3 px covers 9).
 FRAGMENTS_PER_PARTICLE = 8
-
-
-@contextmanager
-def _threads_for(work: int):
-    """Run the block on one thread when ``work`` is below ``_jit.SERIAL_BELOW``."""
-    restore = serial_threads(work)
-    try:
-        yield
-    finally:
-        if restore:
-            numba.set_num_threads(restore)
 
 
 def _parity_phases(tiles_x: int, tiles_y: int) -> list[np.ndarray]:

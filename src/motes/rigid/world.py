@@ -26,11 +26,10 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
 from .. import _validate as check
-from .._jit import serial_threads
+from .._jit import threads_for
 from ..collide.bodies import body_contacts
 from ..collide.contact import Detection, check_collider, pack, project_contacts
 from ..collide.restitution import restitute_contacts
@@ -499,14 +498,10 @@ class World:
         dt = check.positive("dt", dt)
         s = self._build()
         h = dt / self.substeps
-        previous_threads = serial_threads(self.count)
-        try:
+        with threads_for(self.count):
             s["hits"][:] = 0
             for _ in range(self.substeps):
                 self._substep(s, h)
-        finally:
-            if previous_threads:
-                numba.set_num_threads(previous_threads)
 
     def _restitute(self, s, h) -> None:
         """Velocity pass (Müller et al. 2020, §3.5): restitution of the contacts."""
