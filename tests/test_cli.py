@@ -169,3 +169,35 @@ def test_ctrl_c_keeps_a_playable_video_of_the_frames_so_far(tmp_path):
     assert written >= 5
     assert imageio_ffmpeg.count_frames_and_secs(str(out))[0] == written
     assert [p.name for p in tmp_path.iterdir()] == ["fire.mp4"]  # no temporary files left
+
+
+@pytest.mark.parametrize("name", ["../../evil", "/tmp/evil", "sub/evil", "..", ".hidden", ""])
+def test_a_scene_name_never_leaves_the_output_directory(name, tmp_path, capsys, monkeypatch):
+    work = tmp_path / "a" / "b"
+    work.mkdir(parents=True)
+    monkeypatch.chdir(work)
+    scene = work / "s.toml"
+    scene.write_text(f'[scene]\nname = "{name}"\n[[system]]\nname = "x"\n')
+    assert run_cli("run", scene, "--frames", 1, *SMALL) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("motes: error: scene.name: must be a plain name")
+    assert err.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["a", "b", "s.toml"]
+
+
+def test_a_scene_built_in_python_with_a_path_for_a_name_is_refused():
+    from motes.cli.main import UserError, _default_output
+
+    assert _default_output("fire") == "fire.mp4"
+    for name in ("../evil", "/abs/evil", "a/b"):
+        with pytest.raises(UserError, match=r"scene\.name"):
+            _default_output(name)
+
+
+def test_the_default_name_of_an_oddly_named_file_is_a_plain_name(tmp_path):
+    from motes.scene import load_scene
+
+    odd = tmp_path / "..my scene (v2).toml"
+    odd.write_text('[[system]]\nname = "x"\n')
+    assert load_scene(odd).name == "my_scene__v2_"
+    assert load_scene('[[system]]\nname = "x"\n').name == "scene"

@@ -137,6 +137,19 @@ def _list_scenes() -> int:
     return 0
 
 
+def _default_output(scene_name: str) -> str:
+    """``NAME.mp4`` in the current directory; a name that would leave it is refused.
+
+    Scene files are validated to hold plain names; this guards scenes built in Python.
+    """
+    from ..scene.schema import SceneError, file_name
+
+    try:
+        return f"{file_name(scene_name, 'scene.name')}.mp4"
+    except SceneError as error:
+        raise UserError(f"{error}; give the output with -o") from None
+
+
 def _run(args) -> int:
     from ..io.cache import CacheWriter
     from ..io.frames import open_writer
@@ -150,7 +163,7 @@ def _run(args) -> int:
     except OSError as error:
         raise UserError(f"cannot read {args.scene}: {error.strerror}") from None
     frames = args.frames or scene.frame_count
-    output = None if args.no_render else Path(args.output or f"{scene.name}.mp4")
+    output = None if args.no_render else Path(args.output or _default_output(scene.name))
     resolution = args.resolution or scene.camera.resolution
     if output is not None and output.suffix.lower() not in ("", ".mp4", ".gif", ".png"):
         raise UserError(f"-o must end in .mp4, .gif or .png, or be a directory; got {output}")

@@ -7,6 +7,7 @@ with a fixed number of substeps per frame and renders each frame. Load one with
 
 from __future__ import annotations
 
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +26,7 @@ from .schema import (
     boolean,
     build,
     color,
+    file_name,
     integer,
     number,
     one_of,
@@ -332,7 +334,7 @@ def _collider_object(collider, tint) -> SceneObject:
 
 def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
     head = root.table("scene", optional=True) or Table({}, "scene")
-    name = head.get("name", string, Path(origin).stem)
+    name = head.get("name", file_name, _default_name(origin))
     description = head.get("description", string, "")
     duration = head.get("duration", positive(), 4.0)
     fps = head.get("fps", number(1.0, 1000.0), 30.0)
@@ -434,6 +436,14 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         bodies=bodies,
         source=origin,
     )
+
+
+def _default_name(origin: str) -> str:
+    """The file's stem, made a safe output name (scene files may be named anything)."""
+    if origin == "<text>":
+        return "scene"
+    stem = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(origin).stem).lstrip("._-")
+    return stem[:100] or "scene"
 
 
 def _count(value, path):

@@ -8,6 +8,7 @@ nobody asked for (a typo must not be silently ignored) and lists the allowed one
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable
 from typing import Any
 
@@ -158,6 +159,23 @@ def string(value, path):
     if not isinstance(value, str):
         raise SceneError(path, f"must be a string, got {_kind(value)} {value!r}")
     return value
+
+
+#: A scene name: it names the default output file, so it must stay a plain file name.
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,99}")
+
+
+def file_name(value, path):
+    """A plain file name (letters, digits, ``_``, ``-``, ``.``; no directories), at most
+    100 characters: safe to use as an output file name in the current directory."""
+    text = string(value, path)
+    if not _NAME.fullmatch(text):
+        raise SceneError(
+            path,
+            f"must be a plain name of letters, digits, '_', '-' and '.' (at most 100, "
+            f"starting with a letter or digit, no '/' or '..'), got {text!r}",
+        )
+    return text
 
 
 def one_of(*choices: str) -> Reader:
