@@ -7,6 +7,7 @@ No physics lives here, only orchestration. One step (Reeves' frame) runs:
 3. **move**: one fused kernel evaluates gravity, drag and wind inline, integrates,
    resolves colliders, ages every particle and flags the ones whose life is over
    (multi-stage integrators advance first, then run the same kernel without moving);
+   then contacts with other kinds (a cloth) exchange impulses with them;
 4. **extinguish**: other extinction policies flag particles; events (collision, death)
    are delivered; dead particles are removed by one compaction;
 5. **over-life**: colour, size and speed curves update the survivors;
@@ -23,6 +24,7 @@ import numpy as np
 from . import _validate as check
 from ._jit import threads_for
 from ._tracked import fingerprint
+from .collide.between import KindContact
 from .collide.colliders import Collider, pack
 from .emit.emitter import Emitter
 from .forces.base import FieldForce, FieldTerms, Force
@@ -102,6 +104,9 @@ class ParticleSystem:
         self.field_forces: list[FieldForce] = []
         self.forces: list[Force] = []
         self.colliders: list[Collider] = []
+        #: Other kinds the particles collide with (cloths…), after the move; collision
+        #: events report them as collider ``len(colliders) + j``.
+        self.contacts: list[KindContact] = []
         self.modifiers: list[_OverLife] = []
         self.extinctions: list[Extinction] = []
         self.children: list[ParticleSystem] = []
@@ -129,6 +134,9 @@ class ParticleSystem:
                 self.forces.append(item)
             elif isinstance(item, Collider):
                 self.colliders.append(item)
+            elif isinstance(item, KindContact):
+                self.store.require(*item.reads)
+                self.contacts.append(item)
             elif isinstance(item, _OverLife):
                 item.bind(self.store)
                 self.modifiers.append(item)
@@ -148,6 +156,7 @@ class ParticleSystem:
             self.field_forces,
             self.forces,
             self.colliders,
+            self.contacts,
             self.modifiers,
             self.extinctions,
         )
@@ -193,6 +202,7 @@ class ParticleSystem:
                 n, store.raw("position")[:, :n], store.raw("velocity")[:, :n], self.time
             )
         dead = self._move(n, setup)
+        dead += self._contact(n, dt, setup.track_hits)
         for policy in self.extinctions:
             policy.mark(store)
         self.time += dt
@@ -319,6 +329,14 @@ class ParticleSystem:
             hits,
         )
         return int(dead)
+
+    def _contact(self, n: int, dt: float, track_hits: bool) -> int:
+        """Contacts with other kinds, after the move (momentum passes both ways)."""
+        killed = 0
+        for j, contact in enumerate(self.contacts):
+            hits = self._hits if track_hits and n else None
+            killed += contact.resolve(self.store, n, dt, hits, len(self.colliders) + j)
+        return killed
 
     def _deliver_collisions(self, n: int) -> None:
         if not self._listeners["collision"] or n == 0:

@@ -37,6 +37,15 @@ class Body(ABC):
         """Particles in the body (for progress lines and ``Scene.counts``)."""
         return 0
 
+    def contact(self, path: str, name: str, options: dict):
+        """A contact an emitter system's particles have with this body (a
+        :class:`~motes.collide.between.KindContact`), from a ``[[system.contact]]`` table
+        at ``path``; bodies that particles cannot collide with refuse, naming themselves.
+        """
+        raise SceneError(
+            path, f"emitter particles cannot collide with body {name!r} ({type(self).__name__})"
+        )
+
 
 @dataclass
 class BuildContext:

@@ -112,6 +112,11 @@ class ClothBody(Body):
     def count(self) -> int:
         return self.cloth.n
 
+    def contact(self, path: str, name: str, options: dict):
+        from ..couple import ClothContact
+
+        return build(path, ClothContact, self.cloth, **options)
+
 
 def _pins(table: Table, cloth: Cloth, grid: bool) -> None:
     if grid:

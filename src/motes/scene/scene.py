@@ -365,6 +365,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
     systems: dict[str, ParticleSystem] = {}
     looks: dict[str, ParticleLook] = {}
     pending_children = []
+    pending_contacts = []
     for t, seq in zip(system_tables, seeds[: len(system_tables)], strict=True):
         system_name = t.get("name", string)
         if system_name in systems:
@@ -393,6 +394,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
             for c in shared:
                 system.add(c)
         pending_children.extend((system, c) for c in t.tables("child"))
+        pending_contacts.extend((system, c) for c in t.tables("contact"))
         looks[system_name] = _look(t.table("render", optional=True), base)
         t.finish()
         systems[system_name] = system
@@ -421,6 +423,9 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
             raise SceneError(t.key_path("name"), f"duplicate name {body_name!r}")
         bodies[body_name] = body
 
+    for system, c in pending_contacts:
+        system.add(_contact(c, bodies))
+
     return Scene(
         name=name,
         description=description,
@@ -436,6 +441,24 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         bodies=bodies,
         source=origin,
     )
+
+
+def _contact(table: Table, bodies: dict[str, Body]):
+    """A ``[[system.contact]]``: the system's particles against a body, both ways."""
+    name = table.get("body", one_of(*bodies) if bodies else _no_bodies)
+    options = {
+        "restitution": table.get("restitution", number(0.0, 1.0), 0.0),
+        "friction": table.get("friction", number(0.0), 0.0),
+        "thickness": table.get("thickness", positive(), 0.01),
+        "response": table.get("response", one_of("bounce", "kill"), "bounce"),
+        "particle_mass": table.get("particle_mass", positive(), None),
+    }
+    table.finish()
+    return bodies[name].contact(table.path, name, options)
+
+
+def _no_bodies(value, path):
+    raise SceneError(path, f"names body {value!r}, but the scene has no [[body]]")
 
 
 def _default_name(origin: str) -> str:
