@@ -112,6 +112,9 @@ class ClothBody(Body):
     def count(self) -> int:
         return self.cloth.n
 
+    def particle_state(self):
+        return self.cloth.particle_state()
+
 
 def _pins(table: Table, cloth: Cloth, grid: bool) -> None:
     if grid:
@@ -254,6 +257,9 @@ class HairBody(Body):
 
     def count(self) -> int:
         return self.hair.n
+
+    def particle_state(self):
+        return self.hair.particle_state()
 
 
 @register("hair")
