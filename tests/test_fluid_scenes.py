@@ -88,8 +88,9 @@ spacing = 0.05
 def test_a_fluid_body_from_text_draws_particles_when_asked():
     scene = load_scene(SCENE + '  [body.render]\n  mode = "particles"\n')
     scene.advance()
-    ((view, _style),) = scene.bodies["water"].particles()
-    assert len(view) == 64 and view["position"].shape == (64, 3)
+    ((state, _style),) = scene.bodies["water"].particles()
+    assert state.count == 64 and state.positions.shape == (3, 64)
+    assert state["color"].shape == (4, 64) and state.unit("color") == "1"
     assert scene.counts() == {"water": 64}
 
 

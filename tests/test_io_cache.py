@@ -1,4 +1,5 @@
-"""Particle cache: the documented file layout, round trips, bad files, interruption."""
+"""Particle cache: the documented file layout, round trips of every kind, old files, bad
+files, interruption."""
 
 from __future__ import annotations
 
@@ -9,6 +10,9 @@ import pytest
 
 import motes as mo
 from motes.io.cache import FORMAT, VERSION, CacheWriter, load_cache
+from motes.state import CORE
+from particle_kinds import DT as STEP
+from particle_kinds import KINDS, make_system
 
 DT = 1 / 30
 
@@ -34,9 +38,9 @@ def make_systems():
 
 
 def snapshot(system) -> dict[str, np.ndarray]:
-    store = system.store
-    names = ("position", "velocity", "color", "size", "id")
-    return {a: np.array(store[a]) for a in names if store.has(a)}
+    """Every attribute of the system's state, one row per particle (the file's layout)."""
+    state = system.particle_state()
+    return {a: np.array(state[a].T) for a in state.names()}
 
 
 def record(path, frames: int, **kwargs):
@@ -58,10 +62,14 @@ def test_round_trip(tmp_path, compress):
     expected = record(path, 6, compress=compress)
     cache = load_cache(path)
     assert cache.frame_count == len(cache) == 6
-    assert cache.systems == ("fountain", "puff")
+    assert cache.names == cache.systems == ("fountain", "puff")
     np.testing.assert_array_equal(cache.times, [t for t, _, _ in expected])
-    assert cache.attributes("fountain") == ("position", "velocity", "color", "size", "id")
-    assert cache.attributes("puff") == ("position", "velocity", "id")
+    fields = ("age", "lifetime", "color")
+    assert cache.attributes("fountain")[:4] == tuple(CORE)
+    assert set(cache.attributes("fountain")) == {*CORE, *fields}
+    assert cache.attributes("puff") == (*CORE, "age", "lifetime")
+    assert cache.unit("positions", "puff") == "m" and cache.unit("color", "fountain") == "1"
+    assert (cache.scene, cache.seed, cache.motes_version) == (None, None, mo.__version__)
     for f, (_, fountain, puff) in enumerate(expected):
         for name, want in (("fountain", fountain), ("puff", puff)):
             got = cache.frame(f, name)
@@ -71,8 +79,8 @@ def test_round_trip(tmp_path, compress):
                 np.testing.assert_array_equal(got[attribute], values)
     # the puff bursts at t = 2 DT, in the third step: empty frames are kept, as empty
     np.testing.assert_array_equal(cache.counts("puff"), [0, 0, 30, 30, 30, 30])
-    assert cache.frame(0, "puff")["position"].shape == (0, 3)
-    assert cache.frame(-1, "fountain")["id"].dtype == np.int64
+    assert cache.frame(0, "puff")["positions"].shape == (0, 3)
+    assert cache.frame(-1, "fountain")["ids"].dtype == np.int64
 
 
 def test_file_layout_is_the_documented_one(tmp_path):
@@ -82,34 +90,40 @@ def test_file_layout_is_the_documented_one(tmp_path):
         assert archive.testzip() is None
     with np.load(path, allow_pickle=False) as data:
         assert str(data["format"]) == FORMAT == "motes-cache"
-        assert int(data["version"]) == VERSION == 1
+        assert int(data["version"]) == VERSION == 2
+        assert str(data["motes_version"]) == mo.__version__
+        assert str(data["scene"]) == "" and int(data["seed"]) == -1
         assert data["times"].dtype == np.float64 and data["times"].shape == (3,)
-        assert list(data["systems"]) == ["fountain", "puff"]
+        assert list(data["names"]) == ["fountain", "puff"]
+        puff = ("ids", "positions", "velocities", "radius", "age", "lifetime")
+        assert list(data["puff/attributes"]) == list(puff)
+        assert list(data["puff/units"]) == ["", "m", "m/s", "m", "s", "s"]
+        assert len(data["puff/docs"]) == len(puff)
+        meta = ("attributes", "units", "docs", "offsets")
         assert sorted(data.files) == sorted(
-            ["format", "version", "times", "systems"]
-            + [f"fountain/{k}" for k in ("attributes", "offsets", "position", "velocity")]
-            + [f"fountain/{k}" for k in ("color", "size", "id")]
-            + [f"puff/{k}" for k in ("attributes", "offsets", "position", "velocity", "id")]
+            ["format", "version", "motes_version", "scene", "seed", "times", "names"]
+            + [f"puff/{k}" for k in meta + puff]
+            + [f"fountain/{k}" for k in meta + tuple(data["fountain/attributes"])]
         )
         offsets = data["fountain/offsets"]
-        counts = [len(fountain["position"]) for _, fountain, _ in expected]
+        counts = [len(fountain["positions"]) for _, fountain, _ in expected]
         np.testing.assert_array_equal(offsets, np.concatenate([[0], np.cumsum(counts)]))
         n = offsets[-1]
         for key, shape, dtype in [
-            ("position", (n, 3), np.float32),
-            ("velocity", (n, 3), np.float32),
+            ("positions", (n, 3), np.float32),
+            ("velocities", (n, 3), np.float32),
             ("color", (n, 4), np.float32),
-            ("size", (n,), np.float32),
-            ("id", (n,), np.int64),
+            ("radius", (n,), np.float32),
+            ("ids", (n,), np.int64),
         ]:
             assert data[f"fountain/{key}"].shape == shape
             assert data[f"fountain/{key}"].dtype == dtype
         # frame 1's rows, read with NumPy alone
         rows = slice(offsets[1], offsets[2])
-        np.testing.assert_array_equal(data["fountain/position"][rows], expected[1][1]["position"])
+        np.testing.assert_array_equal(data["fountain/positions"][rows], expected[1][1]["positions"])
 
 
-def test_a_bare_store_and_float64_systems_are_recorded_as_float32(tmp_path):
+def test_a_bare_float64_store_is_recorded_in_its_own_dtype(tmp_path):
     store = mo.ParticleStore(10, ("size",), dtype=np.float64)
     store.spawn(4)
     store["position"][:] = np.arange(12).reshape(4, 3) / 3
@@ -117,15 +131,15 @@ def test_a_bare_store_and_float64_systems_are_recorded_as_float32(tmp_path):
     with CacheWriter(path) as cache:
         cache.add_frame(0.0, {"store": store})
     frame = load_cache(path).frame(0)
-    assert frame["position"].dtype == np.float32
-    np.testing.assert_array_equal(frame["position"], store["position"].astype(np.float32))
-    assert set(frame) == {"position", "velocity", "size", "id"}
+    assert frame["positions"].dtype == np.float64
+    np.testing.assert_array_equal(frame["positions"], store["position"])
+    assert set(frame) == {*CORE, "age", "lifetime"}
 
 
 def test_loaded_arrays_are_read_only(tmp_path):
     path = tmp_path / "run.npz"
     record(path, 2)
-    position = load_cache(path).frame(1, "fountain")["position"]
+    position = load_cache(path).frame(1, "fountain")["positions"]
     with pytest.raises(ValueError, match="read-only"):
         position[0] = 0.0
 
@@ -164,7 +178,7 @@ def test_frame_selection_errors(tmp_path):
     cache = load_cache(path)
     with pytest.raises(ValueError, match="name the one you want"):
         cache.frame(0)
-    with pytest.raises(KeyError, match="no system 'smoke'"):
+    with pytest.raises(KeyError, match="no entry 'smoke'"):
         cache.frame(0, "smoke")
     with pytest.raises(IndexError, match="frame 2 out of range"):
         cache.frame(2, "puff")
@@ -176,11 +190,11 @@ def test_add_frame_errors(tmp_path):
     fountain, puff = make_systems()
     cache = CacheWriter(tmp_path / "run.npz")
     cache.add_frame(0.0, {"fountain": fountain})
-    with pytest.raises(ValueError, match="same systems"):
+    with pytest.raises(ValueError, match="same names"):
         cache.add_frame(0.1, {"fountain": fountain, "puff": puff})
     with pytest.raises(ValueError, match="without '/'"):
         cache.add_frame(0.1, {"a/b": fountain})
-    with pytest.raises(TypeError, match="ParticleSystem or ParticleStore"):
+    with pytest.raises(TypeError, match=r"items\['fountain'\]: expected a ParticleState"):
         cache.add_frame(0.1, {"fountain": np.zeros((3, 3))})
     with pytest.raises(ValueError, match="time must be finite"):
         cache.add_frame(float("nan"), {"fountain": fountain})
@@ -229,8 +243,8 @@ def test_newer_version_and_damaged_files(tmp_path):
     good = tmp_path / "run.npz"
     record(good, 2)
     newer = tmp_path / "newer.npz"
-    rewrite(good, newer, version=np.array(2))
-    with pytest.raises(ValueError, match="format version 2, newer than this motes reads"):
+    rewrite(good, newer, version=np.array(3))
+    with pytest.raises(ValueError, match="format version 3, newer than this motes reads"):
         load_cache(newer)
     missing = tmp_path / "missing.npz"
     rewrite(good, missing, **{"puff/offsets": None})
@@ -244,3 +258,69 @@ def test_newer_version_and_damaged_files(tmp_path):
     rewrite(good, offsets, **{"puff/offsets": np.array([0, 5], np.int64)})
     with pytest.raises(ValueError, match=r"damaged.*bad puff/offsets"):
         load_cache(offsets)
+
+
+# -- every kind --------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_round_trip_of_every_kind_equals_the_live_state(tmp_path, kind):
+    make = KINDS[kind][0]
+    thing = make()
+    path = tmp_path / f"{kind}.npz"
+    live = []
+    with CacheWriter(path, scene="test", seed=7) as cache:
+        for _ in range(3):
+            thing.step(STEP)
+            state = thing.particle_state()
+            cache.add_frame(thing.time, {kind: thing})
+            live.append({a: np.array(state[a]) for a in state.names()})
+            units = {a: state.unit(a) for a in state.names()}
+    loaded = load_cache(path)
+    assert (loaded.scene, loaded.seed, loaded.names) == ("test", 7, (kind,))
+    assert loaded.attributes() == tuple(live[0])
+    for f, want in enumerate(live):
+        got = loaded.state(f)
+        assert got.names() == tuple(want)
+        for attribute, values in want.items():
+            assert got[attribute].dtype == values.dtype  # the kind's own precision
+            np.testing.assert_array_equal(got[attribute], values)
+            assert got.unit(attribute) == units[attribute]
+        np.testing.assert_array_equal(loaded.frame(f)["positions"], want["positions"].T)
+
+
+def test_a_later_frame_must_have_every_recorded_attribute(tmp_path):
+    system = make_system()
+    system.step(STEP)
+    cache = CacheWriter(tmp_path / "run.npz")
+    cache.add_frame(0.0, {"a": system})
+    with pytest.raises(ValueError, match="'a' has no attribute 'color'"):
+        cache.add_frame(0.1, {"a": mo.ParticleStore(5)})
+
+
+def test_format_version_1_files_are_read_under_the_new_names(tmp_path):
+    path = tmp_path / "old.npz"
+    position = np.arange(9, dtype=np.float32).reshape(3, 3)
+    np.savez(
+        path,
+        format=np.array("motes-cache"),
+        version=np.array(1),
+        times=np.array([0.5]),
+        systems=np.array(["rain"]),
+        **{
+            "rain/attributes": np.array(["position", "velocity", "id"]),
+            "rain/offsets": np.array([0, 3]),
+            "rain/position": position,
+            "rain/velocity": -position,
+            "rain/id": np.array([4, 5, 6]),
+        },
+    )
+    cache = load_cache(path)
+    assert cache.version == 1 and cache.names == ("rain",)
+    assert cache.attributes() == ("positions", "velocities", "ids")
+    assert (cache.scene, cache.seed, cache.motes_version) == (None, None, None)
+    state = cache.state(0)
+    np.testing.assert_array_equal(state.positions, position.T)
+    np.testing.assert_array_equal(state.ids, [4, 5, 6])
+    np.testing.assert_array_equal(state.radius, np.float32(0.05))  # the size default
+    assert state.unit("velocities") == "m/s"

@@ -33,6 +33,7 @@ from numba import prange
 
 from . import _validate as check
 from ._jit import SERIAL_BELOW, device, parallel_kernel, serial_kernel
+from .state import Field, ParticleState
 
 #: Placeholder dtype meaning "the store's floating-point precision" (float32 or float64).
 REAL = "real"
@@ -54,6 +55,10 @@ class Attribute:
         Value given to newly spawned particles (per component for vectors).
     doc : str
         Meaning and unit, shown in :meth:`ParticleStore.describe`.
+    unit : str
+        SI unit of the values (``"m"``, ``"1/kg"``; ``"1"`` for dimensionless ones), as
+        :meth:`ParticleStore.particle_state` reports it; ``""`` when none applies or none
+        is given.
     """
 
     name: str
@@ -61,6 +66,7 @@ class Attribute:
     dtype: object = REAL
     default: float | tuple[float, ...] = 0.0
     doc: str = ""
+    unit: str = ""
 
     def __post_init__(self):
         if not self.name.isidentifier():
@@ -77,19 +83,21 @@ class Attribute:
 BUILTIN = {
     a.name: a
     for a in (
-        Attribute("position", 3, doc="position [m]"),
-        Attribute("velocity", 3, doc="velocity [m/s]"),
-        Attribute("age", 1, doc="time since birth [s]"),
-        Attribute("lifetime", 1, default=float("inf"), doc="age at which it dies [s]"),
+        Attribute("position", 3, doc="position [m]", unit="m"),
+        Attribute("velocity", 3, doc="velocity [m/s]", unit="m/s"),
+        Attribute("age", 1, doc="time since birth [s]", unit="s"),
+        Attribute("lifetime", 1, default=float("inf"), doc="age at which it dies [s]", unit="s"),
         Attribute("id", 1, np.int64, default=-1, doc="unique id, never reused"),
-        Attribute("mass", 1, default=1.0, doc="mass [kg]"),
-        Attribute("inv_mass", 1, default=1.0, doc="1/mass [1/kg]; 0 pins the particle"),
-        Attribute("color", 4, default=(1.0, 1.0, 1.0, 1.0), doc="linear RGBA in [0, 1]"),
-        Attribute("size", 1, default=0.05, doc="radius [m]"),
-        Attribute("rotation", 1, doc="sprite rotation about the view axis [rad]"),
-        Attribute("birth_color", 4, default=(1.0, 1.0, 1.0, 1.0), doc="colour at birth"),
-        Attribute("birth_size", 1, default=0.05, doc="size at birth [m]"),
-        Attribute("birth_speed", 1, doc="speed at birth [m/s]"),
+        Attribute("mass", 1, default=1.0, doc="mass [kg]", unit="kg"),
+        Attribute(
+            "inv_mass", 1, default=1.0, doc="1/mass [1/kg]; 0 pins the particle", unit="1/kg"
+        ),
+        Attribute("color", 4, default=(1.0, 1.0, 1.0, 1.0), doc="linear RGBA in [0, 1]", unit="1"),
+        Attribute("size", 1, default=0.05, doc="radius [m]", unit="m"),
+        Attribute("rotation", 1, doc="sprite rotation about the view axis [rad]", unit="rad"),
+        Attribute("birth_color", 4, default=(1.0, 1.0, 1.0, 1.0), doc="colour at birth", unit="1"),
+        Attribute("birth_size", 1, default=0.05, doc="size at birth [m]", unit="m"),
+        Attribute("birth_speed", 1, doc="speed at birth [m/s]", unit="m/s"),
     )
 }
 
@@ -98,6 +106,9 @@ COMPACTIONS = ("stable", "swap")
 
 #: Always allocated: the minimum a moving, ageing particle needs.
 CORE = ("position", "velocity", "age", "lifetime", "id")
+
+#: Store attributes that are a :class:`~motes.state.ParticleState`'s core, by state name.
+STATE_CORE = {"ids": "id", "positions": "position", "velocities": "velocity", "radius": "size"}
 
 
 class ParticleStore:
@@ -197,6 +208,28 @@ class ParticleStore:
 
     def __setitem__(self, name: str, value) -> None:
         self[name][...] = value
+
+    def particle_state(self) -> ParticleState:
+        """The live particles as a :class:`~motes.state.ParticleState`: views, no copy.
+
+        ``id``, ``position``, ``velocity`` and ``size`` are the state's ``ids``,
+        ``positions``, ``velocities`` and ``radius`` (without a ``size`` attribute each
+        particle has the attribute's default radius, 0.05 m, in a fresh array); every
+        other attribute is a field of its own name, ``(components, count)`` or
+        ``(count,)``, with its :attr:`Attribute.unit`.
+        """
+        n = self.count
+        live = {name: array[..., :n] for name, array in self._arrays.items()}
+        radius = live.get("size")
+        if radius is None:  # the size every particle would have had
+            radius = np.full(n, BUILTIN["size"].default, dtype=self.dtype)
+        core = set(STATE_CORE.values())
+        fields = {
+            name: Field(live[name], spec.unit, spec.doc)
+            for name, spec in self._specs.items()
+            if name not in core
+        }
+        return ParticleState(live["id"], live["position"], live["velocity"], radius, fields)
 
     def _missing(self, name: str) -> str:
         return (

@@ -36,6 +36,7 @@ from .life.curves import _OverLife
 from .life.events import KINDS, gather
 from .life.extinction import Extinction
 from .particles import ParticleStore
+from .state import ParticleState
 
 
 @dataclass
@@ -375,6 +376,11 @@ class ParticleSystem:
     def __setitem__(self, name: str, value) -> None:
         """Set attribute ``name`` of every live particle (broadcasting ``value``)."""
         self.store[name] = value
+
+    def particle_state(self) -> ParticleState:
+        """The live particles as views into the store (see
+        :meth:`ParticleStore.particle_state`)."""
+        return self.store.particle_state()
 
     @property
     def nbytes(self) -> int:

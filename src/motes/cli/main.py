@@ -171,12 +171,6 @@ def _run(args) -> int:
         raise UserError(f"output directory does not exist: {output.parent}")
     if args.export and not Path(args.export).resolve().parent.is_dir():
         raise UserError(f"export directory does not exist: {Path(args.export).parent}")
-    if args.export and not scene.systems:
-        bodies = ", ".join(scene.bodies)
-        raise UserError(
-            f"--export caches particle systems; {scene.name} has only bodies ({bodies}), "
-            "which the cache does not hold"
-        )
 
     progress = Progress(frames, label=scene.name, enabled=not args.quiet)
     start = time.perf_counter()
@@ -186,7 +180,11 @@ def _run(args) -> int:
     # Ctrl-C, an ffmpeg error): each keeps the frames finished so far.
     with contextlib.ExitStack() as outputs:
         writer = outputs.enter_context(open_writer(output, fps=scene.fps)) if output else None
-        cache = outputs.enter_context(CacheWriter(args.export)) if args.export else None
+        cache = (
+            outputs.enter_context(CacheWriter(args.export, scene=scene.name, seed=scene.seed))
+            if args.export
+            else None
+        )
         outputs.callback(progress.close)
         try:
             # A .png keeps only the last frame: render just that one.
@@ -196,7 +194,7 @@ def _run(args) -> int:
                 if writer is not None and (not still or index == frames - 1):
                     writer.write(scene.render(resolution))
                 if cache is not None:
-                    cache.add_frame(scene.time, scene.systems)
+                    cache.add_frame(scene.time, scene.states())
                 done += 1
                 progress.update(done)
         except KeyboardInterrupt:

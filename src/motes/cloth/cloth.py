@@ -29,6 +29,7 @@ from ..collide.mesh import TriangleMeshCollider
 from ..collide.swept import sweep_contacts
 from ..forces.springs import Springs
 from ..integrate.implicit import SERIAL_BELOW, ConstraintFilter, ImplicitEuler, SolveReport
+from ..state import Field, ParticleState
 from . import topology
 from .drivers import Airflow, Keyframes
 from .kernels import (
@@ -446,6 +447,22 @@ class Cloth:
     def diverged(self) -> bool:
         """True once the state is not finite (an explicit step too large blows up)."""
         return not (np.isfinite(self.position).all() and np.isfinite(self.velocity).all())
+
+    def particle_state(self) -> ParticleState:
+        """The vertices as a :class:`~motes.state.ParticleState`.
+
+        ``positions`` and ``velocities`` are the cloth's float64 rows (the explicit
+        schemes replace ``velocity`` each step: take a new state after one); ``ids`` are
+        the vertex indices; ``radius`` is :attr:`thickness` [m], the distance kept from
+        colliders. Fields: ``mass`` [kg] (the cloth's array) and ``pinned`` (bool, held
+        by a pin or a handle; computed).
+        """
+        fields = {
+            "mass": Field(self.mass, "kg", "vertex mass"),
+            "pinned": Field(self.pinned.copy(), "", "held by a pin or a handle"),
+        }
+        radius = np.full(self.n, self.thickness)
+        return ParticleState(np.arange(self.n), self.position, self.velocity, radius, fields)
 
     def vertices(self) -> np.ndarray:
         """Positions as (n, 3) [m]."""

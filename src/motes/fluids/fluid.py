@@ -19,6 +19,7 @@ from ..collide.contact import Detection, project_contacts
 from ..collide.contact import pack as pack_colliders
 from ..collide.swept import sweep_contacts
 from ..spatial import UniformGrid
+from ..state import Field, ParticleState
 from . import _kernels
 from .boundaries import MeshWall, pack
 from .model import FluidModel
@@ -177,6 +178,25 @@ class Fluid:
     def masses(self) -> np.ndarray:
         """Particle masses [kg], float64, shape (n,): ``ρ₀(phase) spacing³``."""
         return self.model.derived["mass"][self.state.phase]
+
+    def particle_state(self) -> ParticleState:
+        """The particles as a :class:`~motes.state.ParticleState`, in the solver's order.
+
+        ``ids``, ``positions`` and ``velocities`` are the solver's arrays (a step
+        replaces them: take a new state after it); ``radius`` is half the spacing [m],
+        the distance kept from walls. Fields: ``phase`` (int32, index into
+        ``model.phases``), ``density`` [kg/m³] and ``pressure`` [Pa] (views, see
+        :class:`FluidState`) and ``mass`` [kg] (computed, float64).
+        """
+        s = self.state
+        radius = np.full(len(self), 0.5 * self.model.spacing, np.float32)
+        fields = {
+            "phase": Field(s.phase, "", "index into FluidModel.phases"),
+            "density": Field(s.density, "kg/m³", "density at the last constraint iteration"),
+            "pressure": Field(s.pressure, "Pa", "pressure implied by the step's corrections"),
+            "mass": Field(self.masses, "kg", "particle mass"),
+        }
+        return ParticleState(s.ids, s.positions, s.velocities, radius, fields)
 
     def total_mass(self) -> float:
         """Total mass [kg]."""

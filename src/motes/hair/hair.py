@@ -25,6 +25,7 @@ from ..cloth.kernels import collide_kernel
 from ..cloth.strain import StrainLimiter
 from ..collide.colliders import Collider, Sphere, pack
 from ..integrate.implicit import SERIAL_BELOW, ConstraintFilter, ImplicitEuler, SolveReport
+from ..state import Field, ParticleState
 from .bending import StencilSprings, angle_bending
 
 
@@ -316,6 +317,23 @@ class Hair:
             h,
         )
         self.time += h
+
+    def particle_state(self) -> ParticleState:
+        """The particles as a :class:`~motes.state.ParticleState`.
+
+        ``positions`` and ``velocities`` are the hair's float64 rows; ``ids`` are the
+        particle indices (strand ``j`` holds ``j * per_strand`` to
+        ``(j + 1) * per_strand - 1``, root first); ``radius`` is :attr:`thickness` [m],
+        the distance kept from the scalp and colliders. Fields: ``mass`` [kg] (the hair's
+        array) and ``strand`` (int64, the strand of each particle; computed).
+        """
+        ids = np.arange(self.n)
+        fields = {
+            "mass": Field(self.mass, "kg", "particle mass"),
+            "strand": Field(ids // self.per_strand, "", "strand index, root first"),
+        }
+        radius = np.full(self.n, self.thickness)
+        return ParticleState(ids, self.position, self.velocity, radius, fields)
 
     def strands(self) -> np.ndarray:
         """Positions as (strands, particles, 3) [m]."""

@@ -1,42 +1,57 @@
-"""Particle cache: per-frame particle arrays of named systems, in one ``.npz`` file.
+"""Particle cache: per-frame particle states of named systems and bodies, in one ``.npz``.
 
-This is what ``motes ... --export CACHE.npz`` writes, for other tools (renderers, DCC
-importers, analysis notebooks) to read back, with :func:`load_cache` or with NumPy
-alone.
+This is what ``motes run ... --export CACHE.npz`` writes, for other tools (renderers,
+DCC importers, analysis notebooks) to read back, with :func:`load_cache` or with NumPy
+alone. Anything with a :class:`~motes.state.ParticleState` is recorded through it:
+emitter systems, liquids, cloth, hair and rigid worlds alike.
 
-File layout (format version 1)
+File layout (format version 2)
 ------------------------------
 A ZIP archive of ``.npy`` arrays, readable with ``numpy.load(path)`` (no pickles:
-``allow_pickle=False`` works). ``F`` is the number of frames; for each system ``S``,
-``N_S`` is its total number of particle records over all frames.
+``allow_pickle=False`` works). ``F`` is the number of frames; for each entry ``S`` (a
+system or a body), ``N_S`` is its total number of particle records over all frames.
 
-==================  ==============  =======  ==============================================
-key                 shape           dtype    meaning
-==================  ==============  =======  ==============================================
-``format``          ()              str      always ``"motes-cache"``
-``version``         ()              int64    format version, ``1``
-``times``           (F,)            float64  simulation time of each frame [s]
-``systems``         (S,)            str      system names, in the order first given
-``S/attributes``    (A,)            str      attributes recorded for ``S``, a subset of
-                                             ``position, velocity, color, size, id``
-``S/offsets``       (F+1,)          int64    frame ``f``'s particles of ``S`` are rows
-                                             ``offsets[f]:offsets[f+1]`` of every ``S/*``
-                                             array; ``offsets[0] = 0``,
+=================  ============  ==========  ============================================
+key                shape         dtype       meaning
+=================  ============  ==========  ============================================
+``format``         ()            str         always ``"motes-cache"``
+``version``        ()            int64       format version, ``2``
+``motes_version``  ()            str         version of motes that wrote the file
+``scene``          ()            str         scene name; ``""`` when not from a scene
+``seed``           ()            int64       the scene's seed; ``-1`` when not given
+``times``          (F,)          float64     simulation time of each frame [s]
+``names``          (S,)          str         entry names, in the order first given
+``S/attributes``   (A,)          str         attributes recorded for ``S``: ``ids``,
+                                             ``positions``, ``velocities``, ``radius``,
+                                             then the state's fields
+``S/units``        (A,)          str         SI unit of each (``"1"``: dimensionless,
+                                             ``""``: not a quantity)
+``S/docs``         (A,)          str         meaning of each
+``S/offsets``      (F+1,)        int64       frame ``f``'s particles of ``S`` are rows
+                                             ``offsets[f]:offsets[f+1]`` of every
+                                             attribute array; ``offsets[0] = 0``,
                                              ``offsets[F] = N_S``
-``S/position``      (N_S, 3)        float32  position [m]
-``S/velocity``      (N_S, 3)        float32  velocity [m/s]
-``S/color``         (N_S, 4)        float32  linear RGBA, in [0, 1]
-``S/size``          (N_S,)          float32  radius [m]
-``S/id``            (N_S,)          int64    particle id, unique within ``S``, never
-                                             reused: follows a particle across frames
-==================  ==============  =======  ==============================================
+``S/ids``          (N_S,)        int64       stable particle identity: follows a
+                                             particle across frames
+``S/positions``    (N_S, 3)      float       position [m]
+``S/velocities``   (N_S, 3)      float       velocity [m/s]
+``S/radius``       (N_S,)        float       particle radius [m]
+``S/NAME``         (N_S[, c])    any         every other attribute of the state (a
+                                             vector one with ``c`` components)
+=================  ============  ==========  ============================================
 
-``S`` stands for the system's name as given (``"fire/position"`` for a system named
-``fire``); names must be non-empty and contain no ``/``. An attribute is recorded when
-the system's store has it at the first frame (``position``, ``velocity`` and ``id``
-always exist); the list is fixed from then on. Within a frame, particles are in store
-order. A reader should ignore keys it does not know; a file whose ``version`` is
-greater than the one it knows needs a newer reader.
+Values keep the kind's own dtype (float32 for systems and liquids, float64 for cloth,
+hair and rigid worlds), so a frame read back equals the live state. Arrays are record
+major (one row per particle, as other tools expect); the state's ``(c, n)`` rows are
+:meth:`Cache.state`'s transposed views of them. ``S`` stands for the name as given
+(``"fire/positions"`` for an entry named ``fire``); names must be non-empty and contain
+no ``/``. The first frame fixes each entry's attributes, dtypes and components; every
+later frame must have them (further ones are ignored). Within a frame, particles are in
+the kind's own order (a liquid reorders its particles: follow ``ids``). A reader should
+ignore keys it does not know; a file whose ``version`` is greater than the one it knows
+needs a newer reader. Files of format version 1 (systems only: ``systems``,
+``S/position``, ``S/velocity``, ``S/color``, ``S/size``, ``S/id``) are read with the
+attributes renamed to version 2's.
 
 Writing is atomic: the file is built under a temporary name and moved into place when
 complete, also when :class:`CacheWriter` is closed by an exception or Ctrl-C, with the
@@ -45,13 +60,16 @@ file as it was.
 
 Examples
 --------
->>> with CacheWriter("run.npz") as cache:  # doctest: +SKIP
+>>> with CacheWriter("run.npz", scene="fire", seed=1) as cache:  # doctest: +SKIP
 ...     for _ in range(100):
 ...         fire.step(1 / 60)
-...         cache.add_frame(fire.time, {"fire": fire, "smoke": smoke})
+...         water.step(1 / 60)
+...         cache.add_frame(fire.time, {"fire": fire, "water": water})
 >>> cache = load_cache("run.npz")  # doctest: +SKIP
->>> cache.frame(10, "fire")["position"].shape  # doctest: +SKIP
+>>> cache.frame(10, "fire")["positions"].shape  # doctest: +SKIP
 (1234, 3)
+>>> cache.state(10, "water").positions.shape  # doctest: +SKIP
+(3, 4096)
 """
 
 from __future__ import annotations
@@ -65,41 +83,74 @@ from pathlib import Path
 import numpy as np
 
 from .. import _validate as check
-from ..particles import ParticleStore
+from ..particles import BUILTIN
+from ..state import CORE, Field, ParticleState, as_state
 from ._atomic import replacing
 
 #: Value of the ``format`` entry.
 FORMAT = "motes-cache"
 #: Format version this module writes and the newest it reads.
-VERSION = 1
-#: Attributes a cache records, with their file dtype and components (1: scalar).
-ATTRIBUTES: dict[str, tuple[np.dtype, int]] = {
-    "position": (np.dtype("<f4"), 3),
-    "velocity": (np.dtype("<f4"), 3),
-    "color": (np.dtype("<f4"), 4),
-    "size": (np.dtype("<f4"), 1),
-    "id": (np.dtype("<i8"), 1),
+VERSION = 2
+#: Format version 1's attribute names, in version 2's names.
+V1_NAMES = {
+    "position": "positions",
+    "velocity": "velocities",
+    "color": "color",
+    "size": "radius",
+    "id": "ids",
 }
-
-
-def _store_of(name: str, system) -> ParticleStore:
-    store = getattr(system, "store", system)
-    if not isinstance(store, ParticleStore):
-        raise TypeError(
-            f"systems[{name!r}] must be a ParticleSystem or ParticleStore, "
-            f"got {type(system).__name__}"
-        )
-    return store
+#: Format version 1's attributes' units and meanings (by version 2 name).
+_V1_FIELDS = {**CORE, "color": ("1", "linear RGBA in [0, 1]")}
 
 
 def _check_name(name) -> str:
     if not isinstance(name, str) or not name or "/" in name:
-        raise ValueError(f"system names must be non-empty strings without '/', got {name!r}")
+        raise ValueError(f"entry names must be non-empty strings without '/', got {name!r}")
     return name
 
 
+def _state_of(name: str, item) -> ParticleState:
+    try:
+        return as_state(item)
+    except TypeError as error:
+        raise TypeError(f"items[{name!r}]: {error}") from None
+
+
+class _Layout:
+    """What the first frame fixed for one entry: attributes, units, docs, dtypes."""
+
+    def __init__(self, state: ParticleState):
+        self.attributes = state.names()
+        fields = [state.field(a) for a in self.attributes]
+        self.units = tuple(f.unit for f in fields)
+        self.docs = tuple(f.doc for f in fields)
+        self.dtypes = tuple(np.asarray(f.data).dtype for f in fields)
+        # components: () for a scalar attribute, (c,) for a vector one
+        self.components = tuple(np.shape(f.data)[:-1] for f in fields)
+
+    def record(self, name: str, frame: int, state: ParticleState) -> dict[str, np.ndarray]:
+        """Record-major copies of the state's attributes, in the fixed dtypes."""
+        out = {}
+        for attribute, dtype, components in zip(
+            self.attributes, self.dtypes, self.components, strict=True
+        ):
+            if attribute not in state:
+                raise ValueError(
+                    f"frame {frame}: {name!r} has no attribute {attribute!r}, recorded "
+                    "since the first frame"
+                )
+            values = state[attribute]
+            if values.shape[:-1] != components:
+                raise ValueError(
+                    f"frame {frame}: {name}/{attribute} has shape {values.shape}, but "
+                    f"{(*components, 'n')} at the first frame"
+                )
+            out[attribute] = np.array(values.T, dtype=dtype, order="C")
+        return out
+
+
 class CacheWriter:
-    """Collects frames of particle systems and writes them as one cache file on close.
+    """Collects frames of particle states and writes them as one cache file on close.
 
     Parameters
     ----------
@@ -108,27 +159,36 @@ class CacheWriter:
     compress : bool
         Deflate the arrays (smaller, slower to write and read). Off by default, like
         :func:`numpy.savez`.
+    scene : str, optional
+        Name of the scene the frames come from, recorded in the file.
+    seed : int, optional
+        The scene's seed (>= 0), recorded in the file.
 
     Notes
     -----
-    Each :meth:`add_frame` copies the live particles' recorded attributes (about 48
-    bytes per particle with every attribute) and keeps them in memory until
+    Each :meth:`add_frame` copies every attribute of the live particles (about 60 bytes
+    per particle for a coloured, sized system in float32) and keeps them in memory until
     :meth:`close`, which streams them into the file without concatenating them first.
     A long run of a large system needs memory for the whole cache.
     """
 
-    def __init__(self, path, *, compress: bool = False):
+    def __init__(
+        self, path, *, compress: bool = False, scene: str | None = None, seed: int | None = None
+    ):
         path = Path(path)
         if path.suffix.lower() != ".npz":
             raise ValueError(f"path must end in .npz, got {str(path)!r}")
         if not path.parent.is_dir():
             raise FileNotFoundError(f"directory {str(path.parent)!r} does not exist")
+        if scene is not None and not isinstance(scene, str):
+            raise TypeError(f"scene must be a string, got {type(scene).__name__}")
         self.path = path
         self.compress = bool(compress)
-        self._names: tuple[str, ...] | None = None
-        self._attributes: dict[str, tuple[str, ...]] = {}
+        self.scene = scene
+        self.seed = None if seed is None else check.integer("seed", seed, low=0)
+        self._layouts: dict[str, _Layout] | None = None
         # One record per frame, appended in one step (an interruption cannot leave a
-        # frame half-recorded): (time, {system: {attribute: array}}).
+        # frame half-recorded): (time, {name: {attribute: array}}).
         self._frames: list[tuple[float, dict[str, dict[str, np.ndarray]]]] = []
         self._closed = False
 
@@ -142,44 +202,35 @@ class CacheWriter:
         """Whether :meth:`close` has been called."""
         return self._closed
 
-    def add_frame(self, time: float, systems: Mapping[str, object]) -> None:
-        """Record the live particles of each system at simulation time ``time``.
+    def add_frame(self, time: float, items: Mapping[str, object]) -> None:
+        """Record the particles of each item at simulation time ``time``.
 
         Parameters
         ----------
         time : float
             Simulation time of the frame [s].
-        systems : Mapping[str, ParticleSystem or ParticleStore]
-            The systems by name. The first frame fixes the names and, per system, the
-            recorded attributes; every later frame must give the same names.
+        items : Mapping[str, HasParticles or ParticleState]
+            Systems, stores, liquids, cloth, hair, rigid worlds, scene bodies (anything
+            with ``particle_state()``) or states, by name. The first frame fixes the
+            names and each one's attributes; every later frame must give the same names.
         """
         if self._closed:
             raise ValueError(f"add_frame on a closed cache writer ({self.path})")
         time = check.real("time", time)
-        if not isinstance(systems, Mapping) or not systems:
-            raise TypeError("systems must be a non-empty mapping of name -> ParticleSystem")
-        stores = {_check_name(name): _store_of(name, system) for name, system in systems.items()}
-        if self._names is None:
-            names = tuple(stores)
-            attributes = {
-                name: tuple(a for a in ATTRIBUTES if store.has(a)) for name, store in stores.items()
-            }
-        else:
-            names, attributes = self._names, self._attributes
-            if set(stores) != set(names):
-                raise ValueError(
-                    f"frame {len(self._frames)} gives systems {sorted(stores)}, but the first "
-                    f"frame gave {sorted(names)}; every frame must give the same systems"
-                )
-        record = {
-            name: {
-                a: np.array(stores[name][a], dtype=ATTRIBUTES[a][0], order="C")
-                for a in attributes[name]
-            }
-            for name in names
-        }
-        if self._names is None:
-            self._names, self._attributes = names, attributes
+        if not isinstance(items, Mapping) or not items:
+            raise TypeError("items must be a non-empty mapping of name -> particles")
+        states = {_check_name(name): _state_of(name, item) for name, item in items.items()}
+        layouts = self._layouts
+        if layouts is None:
+            layouts = {name: _Layout(state) for name, state in states.items()}
+        elif set(states) != set(layouts):
+            raise ValueError(
+                f"frame {len(self._frames)} gives {sorted(states)}, but the first frame "
+                f"gave {sorted(layouts)}; every frame must give the same names"
+            )
+        frame = len(self._frames)
+        record = {name: layouts[name].record(name, frame, states[name]) for name in layouts}
+        self._layouts = layouts
         self._frames.append((time, record))
 
     def close(self) -> None:
@@ -187,6 +238,8 @@ class CacheWriter:
 
         With no frame added, nothing is written (an existing file is kept).
         """
+        from .. import __version__
+
         if self._closed:
             return
         self._closed = True
@@ -197,18 +250,24 @@ class CacheWriter:
         with replacing(self.path) as tmp, zipfile.ZipFile(tmp, "w", compression) as archive:
             _put(archive, "format", np.array(FORMAT))
             _put(archive, "version", np.array(VERSION, dtype=np.int64))
+            _put(archive, "motes_version", np.array(__version__))
+            _put(archive, "scene", np.array(self.scene or ""))
+            _put(archive, "seed", np.array(-1 if self.seed is None else self.seed, np.int64))
             _put(archive, "times", np.array([t for t, _ in frames], dtype=np.float64))
-            _put(archive, "systems", np.array(self._names, dtype=str))
-            for name in self._names:
+            _put(archive, "names", np.array(list(self._layouts), dtype=str))
+            for name, layout in self._layouts.items():
                 chunks = [record[name] for _, record in frames]
-                counts = [len(chunk["position"]) for chunk in chunks]
+                counts = [len(chunk["ids"]) for chunk in chunks]
                 offsets = np.zeros(len(frames) + 1, dtype=np.int64)
                 np.cumsum(counts, out=offsets[1:])
-                _put(archive, f"{name}/attributes", np.array(self._attributes[name], dtype=str))
+                _put(archive, f"{name}/attributes", np.array(layout.attributes, dtype=str))
+                _put(archive, f"{name}/units", np.array(layout.units, dtype=str))
+                _put(archive, f"{name}/docs", np.array(layout.docs, dtype=str))
                 _put(archive, f"{name}/offsets", offsets)
-                for attribute in self._attributes[name]:
-                    dtype, components = ATTRIBUTES[attribute]
-                    shape = (int(offsets[-1]),) + ((components,) if components > 1 else ())
+                for attribute, dtype, components in zip(
+                    layout.attributes, layout.dtypes, layout.components, strict=True
+                ):
+                    shape = (int(offsets[-1]), *components)
                     _put_chunks(
                         archive, f"{name}/{attribute}", dtype, shape, (c[attribute] for c in chunks)
                     )
@@ -246,8 +305,16 @@ class Cache:
     ----------
     times : numpy.ndarray
         Simulation time of each frame [s], shape ``(frame_count,)``.
-    systems : tuple of str
-        System names.
+    names : tuple of str
+        Entry names (systems and bodies).
+    version : int
+        Format version of the file.
+    scene : str or None
+        Name of the scene the frames come from (None when not recorded).
+    seed : int or None
+        The scene's seed (None when not recorded).
+    motes_version : str or None
+        Version of motes that wrote the file (None before format version 2).
     """
 
     def __init__(
@@ -255,11 +322,27 @@ class Cache:
         times: np.ndarray,
         offsets: dict[str, np.ndarray],
         arrays: dict[str, dict[str, np.ndarray]],
+        fields: dict[str, dict[str, tuple[str, str]]],
+        *,
+        version: int = VERSION,
+        scene: str | None = None,
+        seed: int | None = None,
+        motes_version: str | None = None,
     ):
         self.times = times
-        self.systems = tuple(offsets)
+        self.names = tuple(offsets)
+        self.version = version
+        self.scene = scene
+        self.seed = seed
+        self.motes_version = motes_version
         self._offsets = offsets
         self._arrays = arrays
+        self._fields = fields
+
+    @property
+    def systems(self) -> tuple[str, ...]:
+        """The entry names (:attr:`names`; format version 1 held systems only)."""
+        return self.names
 
     @property
     def frame_count(self) -> int:
@@ -269,16 +352,14 @@ class Cache:
     def __len__(self) -> int:
         return self.frame_count
 
-    def _system(self, system: str | None) -> str:
-        if system is None:
-            if len(self.systems) != 1:
-                raise ValueError(
-                    f"the cache holds systems {list(self.systems)}; name the one you want"
-                )
-            return self.systems[0]
-        if system not in self._offsets:
-            raise KeyError(f"no system {system!r} in the cache; it holds {list(self.systems)}")
-        return system
+    def _name(self, name: str | None) -> str:
+        if name is None:
+            if len(self.names) != 1:
+                raise ValueError(f"the cache holds {list(self.names)}; name the one you want")
+            return self.names[0]
+        if name not in self._offsets:
+            raise KeyError(f"no entry {name!r} in the cache; it holds {list(self.names)}")
+        return name
 
     def _index(self, index: int) -> int:
         index = check.integer("index", index)
@@ -286,53 +367,77 @@ class Cache:
             raise IndexError(f"frame {index} out of range for a cache of {self.frame_count}")
         return index % self.frame_count
 
-    def attributes(self, system: str | None = None) -> tuple[str, ...]:
-        """Attributes recorded for ``system`` (may be omitted if there is only one)."""
-        return tuple(self._arrays[self._system(system)])
+    def attributes(self, name: str | None = None) -> tuple[str, ...]:
+        """Attributes recorded for entry ``name`` (may be omitted if there is only one)."""
+        return tuple(self._arrays[self._name(name)])
 
-    def offsets(self, system: str | None = None) -> np.ndarray:
-        """Row offsets of ``system``, shape ``(frame_count + 1,)`` (see the file layout)."""
-        return self._offsets[self._system(system)]
+    def unit(self, attribute: str, name: str | None = None) -> str:
+        """SI unit of ``attribute`` of entry ``name`` (``"1"`` dimensionless, ``""`` none)."""
+        fields = self._fields[self._name(name)]
+        if attribute not in fields:
+            raise KeyError(
+                f"attribute {attribute!r} was not recorded; the cache has {list(fields)}"
+            )
+        return fields[attribute][0]
 
-    def counts(self, system: str | None = None) -> np.ndarray:
-        """Number of particles of ``system`` in each frame, shape ``(frame_count,)``."""
-        return np.diff(self.offsets(system))
+    def offsets(self, name: str | None = None) -> np.ndarray:
+        """Row offsets of entry ``name``, shape ``(frame_count + 1,)`` (see the layout)."""
+        return self._offsets[self._name(name)]
 
-    def array(self, attribute: str, system: str | None = None) -> np.ndarray:
+    def counts(self, name: str | None = None) -> np.ndarray:
+        """Number of particles of entry ``name`` in each frame, shape ``(frame_count,)``."""
+        return np.diff(self.offsets(name))
+
+    def array(self, attribute: str, name: str | None = None) -> np.ndarray:
         """Every frame's values of ``attribute``, concatenated (rows per :meth:`offsets`)."""
-        arrays = self._arrays[self._system(system)]
+        arrays = self._arrays[self._name(name)]
         if attribute not in arrays:
             raise KeyError(
                 f"attribute {attribute!r} was not recorded; the cache has {list(arrays)}"
             )
         return arrays[attribute]
 
-    def frame(self, index: int, system: str | None = None) -> dict[str, np.ndarray]:
-        """One frame's particles of ``system``.
+    def frame(self, index: int, name: str | None = None) -> dict[str, np.ndarray]:
+        """One frame's particles of entry ``name``, one row per particle.
 
         Parameters
         ----------
         index : int
             Frame number; negative counts from the end.
-        system : str, optional
-            System name; may be omitted when the cache holds a single system.
+        name : str, optional
+            Entry name; may be omitted when the cache holds a single entry.
 
         Returns
         -------
         dict of str to numpy.ndarray
-            Read-only views, e.g. ``"position"`` of shape ``(n, 3)``.
+            Read-only views, e.g. ``"positions"`` of shape ``(n, 3)``.
         """
-        name = self._system(system)
+        name = self._name(name)
         f = self._index(index)
         start, stop = self._offsets[name][f : f + 2]
         return {a: values[start:stop] for a, values in self._arrays[name].items()}
 
+    def state(self, index: int, name: str | None = None) -> ParticleState:
+        """One frame of entry ``name`` as the :class:`~motes.state.ParticleState` it was
+        recorded from: ``(c, n)`` read-only views of the file's rows, units restored.
+
+        A version 1 entry recorded without ``size`` has the attribute's default radius.
+        """
+        name = self._name(name)
+        rows = self.frame(index, name)
+        meaning = self._fields[name]
+        radius = rows.get("radius")
+        if radius is None:
+            radius = np.full(len(rows["ids"]), BUILTIN["size"].default, np.float32)
+        fields = {a: Field(values.T, *meaning[a]) for a, values in rows.items() if a not in CORE}
+        return ParticleState(rows["ids"], rows["positions"].T, rows["velocities"].T, radius, fields)
+
     def __repr__(self) -> str:
-        return f"Cache(frame_count={self.frame_count}, systems={list(self.systems)})"
+        return f"Cache(frame_count={self.frame_count}, names={list(self.names)})"
 
 
 def load_cache(path) -> Cache:
-    """Read a particle cache written by :class:`CacheWriter`.
+    """Read a particle cache written by :class:`CacheWriter` (format version 1 or 2).
 
     Parameters
     ----------
@@ -379,33 +484,60 @@ def load_cache(path) -> Cache:
         version = get("version")
         if version.shape != () or not np.issubdtype(version.dtype, np.integer) or version < 1:
             raise ValueError(f"{shown} is a damaged motes cache: bad version entry {version!r}")
-        if int(version) > VERSION:
+        version = int(version)
+        if version > VERSION:
             raise ValueError(
-                f"{shown} is a motes cache of format version {int(version)}, newer than this "
+                f"{shown} is a motes cache of format version {version}, newer than this "
                 f"motes reads (version {VERSION}); upgrade motes to read it"
             )
         times = get("times")
-        names = get("systems")
+        names = get("names" if version >= 2 else "systems")
         if times.ndim != 1 or names.ndim != 1:
-            raise ValueError(f"{shown} is a damaged motes cache: times or systems not 1-D")
+            raise ValueError(f"{shown} is a damaged motes cache: times or names not 1-D")
         offsets: dict[str, np.ndarray] = {}
         arrays: dict[str, dict[str, np.ndarray]] = {}
+        fields: dict[str, dict[str, tuple[str, str]]] = {}
         for name in map(str, names):
             offs = get(f"{name}/offsets")
             if offs.shape != (len(times) + 1,) or offs[0] != 0 or np.any(np.diff(offs) < 0):
                 raise ValueError(f"{shown} is a damaged motes cache: bad {name}/offsets")
             offsets[name] = offs
+            stored = list(map(str, get(f"{name}/attributes")))
+            if version >= 2:
+                attributes = stored
+                units = list(map(str, get(f"{name}/units")))
+                docs = list(map(str, get(f"{name}/docs")))
+                if len(units) != len(stored) or len(docs) != len(stored):
+                    raise ValueError(f"{shown} is a damaged motes cache: bad {name}/units or docs")
+            else:
+                attributes = [V1_NAMES.get(a, a) for a in stored]
+                units = [_V1_FIELDS.get(a, ("", ""))[0] for a in attributes]
+                docs = [_V1_FIELDS.get(a, ("", ""))[1] for a in attributes]
+            missing = {"ids", "positions", "velocities"} - set(attributes)
+            if missing:
+                raise ValueError(
+                    f"{shown} is a damaged motes cache: {name} lacks {sorted(missing)}"
+                )
             arrays[name] = {}
-            for attribute in map(str, get(f"{name}/attributes")):
-                values = get(f"{name}/{attribute}")
-                components = ATTRIBUTES.get(attribute, (None, None))[1]
-                expected = (int(offs[-1]),) + (() if components in (1, None) else (components,))
-                if values.shape[:1] != expected[:1] or (
-                    components is not None and values.shape != expected
-                ):
+            fields[name] = {}
+            for key, attribute, unit, doc in zip(stored, attributes, units, docs, strict=True):
+                values = get(f"{name}/{key}")
+                rows = int(offs[-1])
+                core = {"positions": (rows, 3), "velocities": (rows, 3), "ids": (rows,)}
+                shape = core.get(attribute, (rows,) if attribute == "radius" else values.shape)
+                if values.shape[:1] != (rows,) or values.ndim > 2 or values.shape != shape:
                     raise ValueError(
-                        f"{shown} is a damaged motes cache: {name}/{attribute} has shape "
-                        f"{values.shape}, expected {expected}"
+                        f"{shown} is a damaged motes cache: {name}/{key} has shape "
+                        f"{values.shape}, expected ({rows}, ...)"
                     )
                 arrays[name][attribute] = values
-    return Cache(times, offsets, arrays)
+                fields[name][attribute] = (unit, doc)
+        meta = {}
+        if version >= 2:
+            seed = int(get("seed"))
+            meta = {
+                "scene": str(get("scene")) or None,
+                "seed": None if seed < 0 else seed,
+                "motes_version": str(get("motes_version")),
+            }
+    return Cache(times, offsets, arrays, fields, version=version, **meta)

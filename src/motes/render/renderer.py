@@ -4,6 +4,10 @@ Order of drawing: the background; opaque geometry (which fills the depth buffer)
 particle systems, alpha-blended ones first (each sorted back to front; systems ordered by
 their mean depth, far first) and additive ones last (order-independent). Colour is
 accumulated in linear light and tone-mapped to sRGB at the end.
+
+Particles of any kind are read through their :class:`~motes.state.ParticleState`: a
+system, a liquid, a cloth, hair or a rigid world (anything with ``particle_state()``),
+or a state itself.
 """
 
 from __future__ import annotations
@@ -12,7 +16,7 @@ import numpy as np
 
 from .. import _validate as check
 from ..color import parse_color
-from ..particles import BUILTIN
+from ..state import ParticleState, as_state
 from .background import Background
 from .camera import Camera
 from .frame import Frame
@@ -87,9 +91,11 @@ class Renderer:
     def render_hdr(self, systems=(), objects=()) -> Frame:
         """The frame in linear light (before tone mapping).
 
-        ``systems`` holds :class:`~motes.system.ParticleSystem` objects or
-        ``(system, SpriteStyle)`` pairs; ``objects`` opaque geometry
-        (:class:`~motes.render.geometry.Ground`, ``Sphere``, ``Box``, ``Mesh``, ``Lines``).
+        ``systems`` holds particles — a :class:`~motes.state.ParticleState` or anything
+        with ``particle_state()`` (a :class:`~motes.system.ParticleSystem`, a liquid,
+        cloth, hair, a rigid world) — or ``(particles, SpriteStyle)`` pairs; ``objects``
+        opaque geometry (:class:`~motes.render.geometry.Ground`, ``Sphere``, ``Box``,
+        ``Mesh``, ``Lines``).
         """
         width, height = self.camera.resolution
         frame = Frame(width, height)
@@ -98,13 +104,16 @@ class Renderer:
             draw_geometry(
                 frame, self.camera, list(objects), lights=self.lights, supersample=self.supersample
             )
-        for system, style in self._draw_order(systems):
-            key = (id(system), id(style))
-            if key not in self._rasterizers:
+        for owner, state, style in self._draw_order(systems):
+            # Keyed by the object passed in (a system lives across frames; a state is
+            # taken anew each frame): its rasteriser keeps its scratch buffers.
+            key = (id(owner), id(style))
+            rasterizer = self._rasterizers.get(key)
+            if rasterizer is None or rasterizer.style is not style:  # ids can be reused
                 if len(self._rasterizers) > 64:
                     self._rasterizers.clear()
-                self._rasterizers[key] = SpriteRasterizer(style)
-            draw_system(frame, self.camera, system, self._rasterizers[key])
+                rasterizer = self._rasterizers[key] = SpriteRasterizer(style)
+            draw_system(frame, self.camera, state, rasterizer)
         return frame
 
     def render(self, systems=(), objects=()) -> np.ndarray:
@@ -112,40 +121,47 @@ class Renderer:
         frame = self.render_hdr(systems, objects)
         return to_srgb8(frame.color, exposure=self.exposure, tonemap=self.tonemap)
 
-    def _draw_order(self, systems):
-        pairs = []
+    def _draw_order(self, systems) -> list[tuple[object, ParticleState, SpriteStyle]]:
+        """``(owner, state, style)`` of each non-empty item, in drawing order."""
+        items = []
         for item in systems:
-            system, style = item if isinstance(item, tuple) else (item, SpriteStyle())
+            owner, style = item if isinstance(item, tuple) else (item, SpriteStyle())
             if not isinstance(style, SpriteStyle):
                 raise TypeError(f"style must be a SpriteStyle, got {style!r}")
-            if len(system):
-                pairs.append((system, style))
-        alpha = [p for p in pairs if p[1].blend is Blend.ALPHA]
-        additive = [p for p in pairs if p[1].blend is not Blend.ALPHA]
-        depth = {
-            id(s): float(self.camera.to_view(s["position"].mean(axis=0))[0, 2]) for s, _ in alpha
-        }
-        alpha.sort(key=lambda p: -depth[id(p[0])])
-        return alpha + additive
+            state = as_state(owner)
+            if state.count:
+                items.append((owner, state, style))
+        alpha = [p for p in items if p[2].blend is Blend.ALPHA]
+        additive = [p for p in items if p[2].blend is not Blend.ALPHA]
+        depth = [
+            float(self.camera.to_view(state.positions.T.mean(axis=0))[0, 2])
+            for _, state, _ in alpha
+        ]
+        order = sorted(range(len(alpha)), key=lambda k: -depth[k])
+        return [alpha[k] for k in order] + additive
 
 
-def draw_system(frame: Frame, camera: Camera, system, rasterizer: SpriteRasterizer) -> int:
-    """Draw one particle system's live particles; returns the number drawn."""
+def draw_system(frame: Frame, camera: Camera, particles, rasterizer: SpriteRasterizer) -> int:
+    """Draw particles (a :class:`~motes.state.ParticleState` or anything with
+    ``particle_state()``); returns the number drawn.
+
+    Colour comes from the state's ``color`` field (white without one), the sprite
+    radius from ``radius``, the texture angle from ``rotation`` when the style has a
+    texture, the streak from ``velocities`` when it has a shutter. The rasteriser takes
+    ``(n, c)`` arrays: the state's ``(c, n)`` rows are passed transposed, without a copy.
+    """
+    state = as_state(particles)
     style = rasterizer.style
-    store = system.store
-    n = len(system)
+    n = state.count
     if n == 0:
         return 0
-    colors = system["color"] if store.has("color") else np.broadcast_to(_WHITE, (n, 4))
-    if store.has("size"):
-        radii = system["size"]
-    else:  # the size every particle would have had (the attribute's default)
-        radii = np.full(n, BUILTIN["size"].default, dtype=np.float32)
-    rotation = system["rotation"] if store.has("rotation") and style.texture is not None else None
-    velocities = system["velocity"] if style.shutter > 0 else None
+    colors = state["color"].T if "color" in state else np.broadcast_to(_WHITE, (n, 4))
+    rotation = state["rotation"] if "rotation" in state and style.texture is not None else None
+    velocities = state.velocities.T if style.shutter > 0 else None
     return rasterizer.draw(
-        frame, camera, system["position"], colors, radii, rotation=rotation, velocities=velocities
-    )
+        frame, camera, state.positions.T, colors, state.radius,
+        rotation=rotation, velocities=velocities,
+    )  # fmt: skip
 
 
 def background_from(settings) -> Background:

@@ -36,6 +36,7 @@ from ..collide.restitution import restitute_contacts
 from ..collide.spheres import project_spheres, restitute_spheres
 from ..collide.swept import sweep_contacts
 from ..constrain import ConstraintBuilder, Pins
+from ..state import Field, ParticleState
 from .kernels import verlet
 from .shapes import BodyShape
 from .transform import body_transforms
@@ -350,6 +351,28 @@ class World:
         if self._h is None:
             return np.zeros((self.count, 3))
         return (self._position - self._previous).T / self._h
+
+    def particle_state(self) -> ParticleState:
+        """The particles as a :class:`~motes.state.ParticleState`.
+
+        ``positions`` are the world's float64 rows (a view; :meth:`add_particles`
+        reallocates them); ``velocities`` are computed as :attr:`velocity` (zero before
+        the first step); ``ids`` are the particle indices; ``radius`` is each particle's
+        contact radius [m] (a view: a ball's radius, 1 % of a body's smallest extent by
+        default, 0 for a point particle). Fields: ``mass`` [kg] (a view) and
+        ``previous`` (3, n) [m], the positions one substep ago (a view; with
+        ``positions``, the whole Verlet state).
+        """
+        if self._h is None:
+            velocities = np.zeros((3, self.count))
+        else:
+            velocities = (self._position - self._previous) / self._h
+        fields = {
+            "mass": Field(self.mass, "kg", "particle mass"),
+            "previous": Field(self._previous, "m", "positions one substep ago"),
+        }
+        ids = np.arange(self.count)
+        return ParticleState(ids, self._position, velocities, self.radius, fields)
 
     @property
     def colliders(self) -> tuple:

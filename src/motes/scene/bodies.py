@@ -15,11 +15,19 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
+from ..state import ParticleState
 from .schema import SceneError, Table, one_of
 
 
 class Body(ABC):
-    """Something a scene steps and draws that is not an emitter-driven system."""
+    """Something a scene steps and draws that is not an emitter-driven system.
+
+    A body shows its particles as its simulation's :class:`~motes.state.ParticleState`
+    (:meth:`particle_state`, what the particle cache records), and what to draw as
+    particles as ``(ParticleState, SpriteStyle)`` pairs (:meth:`particles`).
+    """
 
     @abstractmethod
     def step(self, dt: float) -> None:
@@ -30,8 +38,12 @@ class Body(ABC):
         return []
 
     def particles(self) -> list:
-        """``(system_like, SpriteStyle)`` pairs to draw as particles (see ``Renderer``)."""
+        """``(ParticleState, SpriteStyle)`` pairs to draw as particles (see ``Renderer``)."""
         return []
+
+    def particle_state(self) -> ParticleState:
+        """The particles of the body's simulation now; empty for a body without any."""
+        return ParticleState(np.zeros(0, np.int64), np.zeros((3, 0)), np.zeros((3, 0)), np.zeros(0))
 
     def count(self) -> int:
         """Particles in the body (for progress lines and ``Scene.counts``)."""

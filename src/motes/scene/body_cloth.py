@@ -117,6 +117,9 @@ class ClothBody(Body):
 
         return build(path, ClothContact, self.cloth, **options)
 
+    def particle_state(self):
+        return self.cloth.particle_state()
+
 
 def _pins(table: Table, cloth: Cloth, grid: bool) -> None:
     if grid:
@@ -259,6 +262,9 @@ class HairBody(Body):
 
     def count(self) -> int:
         return self.hair.n
+
+    def particle_state(self):
+        return self.hair.particle_state()
 
 
 @register("hair")

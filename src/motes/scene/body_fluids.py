@@ -18,6 +18,7 @@ from ..render import geometry
 from ..render.metaballs import Metaballs
 from ..render.shading import Material
 from ..render.sprites import SpriteStyle
+from ..state import Field
 from .bodies import Body, BuildContext, register
 from .schema import (
     SceneError,
@@ -91,29 +92,6 @@ class _Shake:
         self.offset = target
 
 
-class _ParticleView:
-    """What ``Renderer.draw_system`` reads from a system: positions, colours, sizes."""
-
-    def __init__(self, positions, colors, radius):
-        self.positions, self.colors, self.radius = positions, colors, radius
-        self.store = self
-
-    def has(self, name: str) -> bool:
-        return name in ("color", "size")
-
-    def __len__(self) -> int:
-        return self.positions.shape[1]
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        if name == "position":
-            return self.positions.T
-        if name == "color":
-            return self.colors
-        if name == "size":
-            return np.full(len(self), self.radius, np.float32)
-        raise KeyError(name)
-
-
 class FluidBody(Body):
     """A liquid in a scene: steps the fluid, its nozzles and shaken tanks; draws it."""
 
@@ -123,6 +101,7 @@ class FluidBody(Body):
         self.nozzles, self.shakes, self.walls = nozzles, shakes, walls
         self.look = look
         self.limit = limit
+        self.sprite_style = SpriteStyle(kind="sprite", blend="alpha")
         self.metaballs = None
         if look["mode"] == "surface":
             self.metaballs = Metaballs.from_radius(
@@ -139,6 +118,9 @@ class FluidBody(Body):
     def count(self) -> int:
         return len(self.fluid)
 
+    def particle_state(self):
+        return self.fluid.particle_state()
+
     def _spray(self) -> np.ndarray:
         """Particles in thin places (see the module docstring)."""
         s = self.fluid.state
@@ -148,16 +130,20 @@ class FluidBody(Body):
         return s.density < self.look["spray_below"] * rest[s.phase]
 
     def particles(self) -> list:
-        s = self.fluid.state
+        state = self.fluid.particle_state()
         # Sprites: every particle, or with a surface only the spray.
-        keep = np.ones(len(self.fluid), bool) if self.metaballs is None else self._spray()
-        if not keep.any():
+        if self.metaballs is not None:
+            state = state.take(self._spray())
+        if state.count == 0:
             return []
-        rgba = np.empty((int(keep.sum()), 4), np.float32)
-        rgba[:, :3] = self.colors[s.phase[keep]]
+        rgba = np.empty((state.count, 4), np.float32)
+        rgba[:, :3] = self.colors[state["phase"]]
         rgba[:, 3] = self.look["alpha"]
-        view = _ParticleView(s.positions[:, keep], rgba, self.look["radius"])
-        return [(view, SpriteStyle(kind="sprite", blend="alpha"))]
+        drawn = state.replace(
+            radius=np.full(state.count, self.look["radius"], np.float32),
+            color=Field(rgba.T, "1", "linear RGBA"),
+        )
+        return [(drawn, self.sprite_style)]
 
     def drawables(self) -> list:
         items = list(self.walls)

@@ -77,6 +77,9 @@ class RigidScene(Body):
     def count(self) -> int:
         return self.world.count
 
+    def particle_state(self):
+        return self.world.particle_state()
+
     def drawables(self) -> list:
         out = list(self.static)
         position = self.world.position

@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import hierarchy
 from ..render.camera import Camera, Projection
+from ..state import ParticleState
 from ..system import ParticleSystem
 from . import parts
 from .bodies import Body, BuildContext, build_body
@@ -148,6 +149,13 @@ class Scene:
         counts = {name: len(s) for name, s in self.systems.items()}
         counts.update((name, body.count()) for name, body in self.bodies.items())
         return counts
+
+    def states(self) -> dict[str, ParticleState]:
+        """The :class:`~motes.state.ParticleState` of every system and body now, by name
+        (systems first, each group in file order)."""
+        states = {name: s.particle_state() for name, s in self.systems.items()}
+        states.update((name, body.particle_state()) for name, body in self.bodies.items())
+        return states
 
     def render(self, resolution=None) -> np.ndarray:
         """The current frame as a (height, width, 3) uint8 sRGB image.
