@@ -86,6 +86,8 @@ def _drawable(obj: SceneObject):
         return geometry.Ground(
             height=p.get("height", 0.0), size=p.get("size"), color=color, checker=checker
         )
+    if obj.kind == "mesh":
+        return geometry.Mesh(p["mesh"], color=color)
     if obj.kind == "sphere":
         return geometry.Sphere(p.get("center", (0.0, 0.0, 0.0)), p.get("radius", 1.0), color=color)
     rotation = p.get("matrix")

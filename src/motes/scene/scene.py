@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import hierarchy
+from ..collide.colliders import Collider
 from ..render.camera import Camera, Projection
 from ..system import ParticleSystem
 from . import parts
@@ -31,6 +32,7 @@ from .schema import (
     number,
     one_of,
     positive,
+    scene_file,
     string,
     vector,
 )
@@ -273,11 +275,7 @@ def _look(table: Table | None, base: Path) -> ParticleLook:
     look.softness = table.get("softness", number(0.0), 0.0)
     look.shutter = table.get("shutter", number(0.0, 1.0), 0.0)
     look.intensity = table.get("intensity", number(0.0), 1.0)
-    texture = table.get("texture", string, None)
-    if texture is not None:
-        look.texture = (base / texture).resolve()
-        if not look.texture.is_file():
-            raise SceneError(table.key_path("texture"), f"image file not found: {look.texture}")
+    look.texture = table.get("texture", scene_file(base, what="image file"), None)
     look.visible = table.get("visible", boolean, True)
     table.finish()
     return look
@@ -310,7 +308,9 @@ _COLLIDER_OBJECTS = {"plane": "ground", "sphere": "sphere", "box": "box"}
 
 
 def _collider_object(collider, tint) -> SceneObject:
-    """The drawable twin of a visible collider."""
+    """The drawable twin of a visible collider (a mesh collider passes its mesh)."""
+    if not isinstance(collider, Collider):
+        return SceneObject("mesh", {"mesh": collider}, tint)
     kind = type(collider).__name__.lower()
     if kind == "plane":
         normal = np.asarray(collider.normal, dtype=float)
@@ -347,12 +347,13 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
     render = _render_settings(root.table("render", optional=True))
 
     objects = [_object(t) for t in root.tables("object")]
-    shared = []
+    shared, shared_paths = [], []
     for t in root.tables("collider"):
-        c, visible, tint = parts.collider(t)
+        c, drawn, tint = parts.collider(t, base)
         shared.append(c)
-        if visible:
-            objects.append(_collider_object(c, tint))
+        shared_paths.append(t.path)
+        if drawn is not None:
+            objects.append(_collider_object(drawn, tint))
 
     system_tables = root.tables("system")
     body_tables = root.tables("body")
@@ -379,18 +380,20 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
             compaction=t.get("compaction", one_of("stable", "swap"), "stable"),
         )
         for e in t.tables("emitter"):
-            system.add(parts.emitter(e, camera))
+            system.add(parts.emitter(e, camera, base))
         for f in t.tables("force"):
             system.add(parts.force(f))
         for m in t.tables("modifier"):
             system.add(parts.modifier(m))
         for c in t.tables("collider"):
-            collider, visible, tint = parts.collider(c)
+            collider, drawn, tint = parts.collider(c, base)
+            _refuse_mesh(collider, c.path, system_name)
             system.add(collider)
-            if visible:
-                objects.append(_collider_object(collider, tint))
+            if drawn is not None:
+                objects.append(_collider_object(drawn, tint))
         if t.get("shared_colliders", boolean, True):
-            for c in shared:
+            for c, path in zip(shared, shared_paths, strict=True):
+                _refuse_mesh(c, path, system_name, shared=True)
                 system.add(c)
         pending_children.extend((system, c) for c in t.tables("child"))
         looks[system_name] = _look(t.table("render", optional=True), base)
@@ -405,7 +408,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
             c.path,
             hierarchy.SpawnOnEvent,
             child,
-            parts.emitter(template, camera, template=True),
+            parts.emitter(template, camera, base, template=True),
             on=c.get("on", one_of(*parts.EVENT_KINDS), "death"),
             count=c.get("count", _count, 1),
             inherit=tuple(c.get("inherit", array_of(string), [])),
@@ -436,6 +439,22 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         bodies=bodies,
         source=origin,
     )
+
+
+def _refuse_mesh(collider, path: str, system_name: str, *, shared: bool = False) -> None:
+    """Emitter systems collide in the fused step kernel, which has no triangle meshes."""
+    if parts.is_mesh_collider(collider):
+        hint = (
+            f"set shared_colliders = false in system {system_name!r}, or use the mesh "
+            "with bodies only"
+            if shared
+            else "use planes, spheres or boxes here"
+        )
+        raise SceneError(
+            path,
+            f"a triangle-mesh collider cannot act on the emitter system {system_name!r} "
+            f"(meshes collide with rigid, cloth and fluid bodies only); {hint}",
+        )
 
 
 def _default_name(origin: str) -> str:
