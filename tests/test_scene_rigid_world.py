@@ -174,7 +174,7 @@ def test_a_hinged_door_swings_about_its_hinge_and_a_chain_hangs_from_its_joints(
     world.set_velocity(world.bodies[0].particles, (0.0, 0.0, 1.0))  # push the door
     for _ in range(scene.frame_count):
         scene.advance()
-    centre, rotation = world.transforms()
+    centre, _ = world.transforms()
     # The door turned about the vertical hinge line x = z = 0: its centre stays 0.5 m
     # from it at the same height, and it turned away from the x axis.
     assert np.hypot(centre[0][0], centre[0][2]) == pytest.approx(0.5, abs=0.01)
