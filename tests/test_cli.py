@@ -89,6 +89,7 @@ def test_run_writes_mp4_png_and_sequences(tmp_path):
         "frame_00000.png",
         "frame_00001.png",
         "frame_00002.png",
+        "frames.json",  # what made them (tests/test_output_metadata.py)
     ]
 
 

@@ -150,6 +150,18 @@ def _default_output(scene_name: str) -> str:
         raise UserError(f"{error}; give the output with -o") from None
 
 
+def _record(scene) -> dict[str, str]:
+    """What an output records of how it was made: enough to make it again."""
+    from .. import __version__
+
+    return {
+        "scene": scene.name,
+        "source": str(scene.source),
+        "seed": str(scene.seed),
+        "motes_version": __version__,
+    }
+
+
 def _run(args) -> int:
     from ..io.cache import CacheWriter
     from ..io.frames import open_writer
@@ -179,7 +191,11 @@ def _run(args) -> int:
     # An ExitStack closes every output even when closing another one fails (a second
     # Ctrl-C, an ffmpeg error): each keeps the frames finished so far.
     with contextlib.ExitStack() as outputs:
-        writer = outputs.enter_context(open_writer(output, fps=scene.fps)) if output else None
+        writer = (
+            outputs.enter_context(open_writer(output, fps=scene.fps, metadata=_record(scene)))
+            if output
+            else None
+        )
         cache = (
             outputs.enter_context(CacheWriter(args.export, scene=scene.name, seed=scene.seed))
             if args.export

@@ -14,6 +14,7 @@ from .frames import (
     contact_sheet,
     open_writer,
     read_image,
+    read_metadata,
     save_image,
 )
 
@@ -29,5 +30,6 @@ __all__ = [
     "load_cache",
     "open_writer",
     "read_image",
+    "read_metadata",
     "save_image",
 ]

@@ -35,6 +35,16 @@ simulation, an error in the writer) and still leave usable output:
   :attr:`FrameWriter.frames_written` counts exactly the frames in the output. A second
   Ctrl-C during the same write is obeyed at once.
 
+Metadata
+--------
+Every writer takes ``metadata``, a dict of text (``motes run`` records the scene's name,
+its source, the seed and the motes version), and stores it where the format has room:
+PNG text chunks, one per key (``tEXt``, or ``iTXt`` for text beyond Latin-1); a JSON
+object in the GIF comment and in the MP4 ``comment`` tag (ffmpeg's ``-metadata``); a
+``frames.json`` side file in a PNG sequence folder (given metadata), which also holds
+the number of frames (each frame also carries the text chunks). :func:`read_metadata`
+reads any of them back.
+
 What is not covered: a process killed outright (``SIGKILL``, an unhandled ``SIGTERM``)
 cannot finish anything and leaves the hidden temporary file behind; a Ctrl-C while a
 writer is *closing* abandons the new file (its temporary is removed; an earlier file at
@@ -53,6 +63,7 @@ Examples
 from __future__ import annotations
 
 import contextlib
+import json
 import math
 import os
 import subprocess
@@ -69,6 +80,29 @@ from ._atomic import DeferredInterrupt, discard, replacing, temporary_sibling
 
 #: File suffixes :func:`open_writer` knows (a directory gives a PNG sequence).
 SUFFIXES = (".mp4", ".gif", ".png")
+
+#: The side file of a PNG sequence that holds its metadata.
+SEQUENCE_METADATA = "frames.json"
+
+
+def _check_metadata(metadata) -> dict[str, str]:
+    """``metadata`` as a dict of str -> str (keys: letters, digits, ``_``, ``-``)."""
+    if metadata is None:
+        return {}
+    if not isinstance(metadata, dict):
+        raise TypeError(f"metadata must be a dict of strings, got {type(metadata).__name__}")
+    for key, value in metadata.items():
+        if (
+            not isinstance(key, str)
+            or not key.isascii()
+            or not key.replace("_", "a").replace("-", "a").isalnum()
+        ):
+            raise ValueError(
+                f"metadata keys must be names of letters, digits, '_', '-', got {key!r}"
+            )
+        if not isinstance(value, str):
+            raise TypeError(f"metadata[{key!r}] must be a string, got {type(value).__name__}")
+    return dict(metadata)
 
 
 def _check_image(name: str, image, *, channels: tuple[int, ...] = (3,)) -> np.ndarray:
@@ -207,10 +241,13 @@ class PngWriter(FrameWriter):
     ----------
     path : str or os.PathLike
         Output file, ending in ``.png``.
+    metadata : dict of str, optional
+        Stored as PNG text chunks (see the module notes).
     """
 
-    def __init__(self, path):
+    def __init__(self, path, *, metadata: dict[str, str] | None = None):
         super().__init__(_check_file_path(path, ".png"))
+        self.metadata = _check_metadata(metadata)
         self._last: np.ndarray | None = None
 
     def _write(self, frame: np.ndarray) -> None:
@@ -218,7 +255,7 @@ class PngWriter(FrameWriter):
 
     def _close(self) -> None:
         if self._last is not None:
-            _save_png(self.path, self._last)
+            _save_png(self.path, self._last, self.metadata)
             self._last = None
 
 
@@ -238,9 +275,20 @@ class SequenceWriter(FrameWriter):
         File name before the number.
     start : int
         Number of the first frame.
+    metadata : dict of str, optional
+        Written with the frame count, prefix and first number to ``frames.json`` in the
+        directory when the writer closes (if it wrote a frame); without metadata the
+        directory holds only the frames.
     """
 
-    def __init__(self, directory, *, prefix: str = "frame_", start: int = 0):
+    def __init__(
+        self,
+        directory,
+        *,
+        prefix: str = "frame_",
+        start: int = 0,
+        metadata: dict[str, str] | None = None,
+    ):
         directory = Path(directory)
         if directory.exists() and not directory.is_dir():
             raise NotADirectoryError(f"{str(directory)!r} exists and is not a directory")
@@ -249,6 +297,7 @@ class SequenceWriter(FrameWriter):
         super().__init__(directory)
         self.prefix = prefix
         self.start = check.integer("start", start, low=0)
+        self.metadata = _check_metadata(metadata)
         directory.mkdir(parents=True, exist_ok=True)
 
     def frame_path(self, index: int) -> Path:
@@ -256,10 +305,19 @@ class SequenceWriter(FrameWriter):
         return self.path / f"{self.prefix}{self.start + index:05d}.png"
 
     def _write(self, frame: np.ndarray) -> None:
-        _save_png(self.frame_path(self.frames_written), frame)
+        _save_png(self.frame_path(self.frames_written), frame, self.metadata)
 
     def _close(self) -> None:
-        pass
+        if not self.frames_written or not self.metadata:
+            return
+        record = {
+            **self.metadata,
+            "frames": self.frames_written,
+            "prefix": self.prefix,
+            "start": self.start,
+        }
+        with replacing(self.path / SEQUENCE_METADATA) as tmp:
+            Path(tmp).write_text(json.dumps(record, indent=2) + "\n")
 
 
 def _gif_delays(count: int, fps: float) -> list[int]:
@@ -292,11 +350,14 @@ class GifWriter(FrameWriter):
     fps : float
         Frames per second (> 0). GIF delays are whole centiseconds; see the timing note
         in :func:`_gif_delays` (at most 50 fps play in real time).
+    metadata : dict of str, optional
+        Stored as a JSON object in the GIF comment.
     """
 
-    def __init__(self, path, *, fps: float = 30.0):
+    def __init__(self, path, *, fps: float = 30.0, metadata: dict[str, str] | None = None):
         super().__init__(_check_file_path(path, ".gif"))
         self.fps = check.positive("fps", fps)
+        self.metadata = _check_metadata(metadata)
         self._frames: list = []
 
     def _write(self, frame: np.ndarray) -> None:
@@ -317,6 +378,7 @@ class GifWriter(FrameWriter):
                 duration=_gif_delays(len(frames), self.fps),
                 loop=0,
                 optimize=True,
+                **({"comment": json.dumps(self.metadata)} if self.metadata else {}),
             )
 
 
@@ -342,6 +404,8 @@ class Mp4Writer(FrameWriter):
         for most material, each +6 about halves the size.
     preset : str
         x264 speed/size trade-off, ``"ultrafast"`` ... ``"veryslow"``.
+    metadata : dict of str, optional
+        Stored as a JSON object in the MP4 ``comment`` tag.
 
     Notes
     -----
@@ -365,8 +429,17 @@ class Mp4Writer(FrameWriter):
         "veryslow",
     )
 
-    def __init__(self, path, *, fps: float = 30.0, crf: int = 18, preset: str = "medium"):
+    def __init__(
+        self,
+        path,
+        *,
+        fps: float = 30.0,
+        crf: int = 18,
+        preset: str = "medium",
+        metadata: dict[str, str] | None = None,
+    ):
         super().__init__(_check_file_path(path, ".mp4"))
+        self.metadata = _check_metadata(metadata)
         self.fps = check.positive("fps", fps)
         self.crf = check.integer("crf", crf, low=0)
         if self.crf > 51:
@@ -414,6 +487,7 @@ class Mp4Writer(FrameWriter):
             "-crf",
             str(self.crf),
             # index at the front, so browsers can play before the whole file has loaded
+            *(["-metadata", f"comment={json.dumps(self.metadata)}"] if self.metadata else []),
             "-movflags",
             "+faststart",
             "-f",
@@ -506,7 +580,9 @@ class Mp4Writer(FrameWriter):
             self._cleanup()
 
 
-def open_writer(path, *, fps: float = 30.0, crf: int = 18) -> FrameWriter:
+def open_writer(
+    path, *, fps: float = 30.0, crf: int = 18, metadata: dict[str, str] | None = None
+) -> FrameWriter:
     """Open a frame writer chosen by the form of ``path``.
 
     Parameters
@@ -519,6 +595,9 @@ def open_writer(path, *, fps: float = 30.0, crf: int = 18) -> FrameWriter:
         Frames per second of a video or GIF (> 0); ignored by PNG output.
     crf : int
         H.264 quality for ``.mp4`` (0-51, lower is better); ignored otherwise.
+    metadata : dict of str, optional
+        Recorded in the output (see the module notes); read back with
+        :func:`read_metadata`.
 
     Returns
     -------
@@ -541,15 +620,15 @@ def open_writer(path, *, fps: float = 30.0, crf: int = 18) -> FrameWriter:
         raise TypeError(f"path must be a str or os.PathLike, got {path!r}")
     target = Path(text)
     if text.endswith(("/", os.sep)) or target.is_dir() or target.suffix == "":
-        return SequenceWriter(target)
+        return SequenceWriter(target, metadata=metadata)
     suffix = target.suffix.lower()
     if suffix == ".mp4":
-        return Mp4Writer(target, fps=fps, crf=crf)
+        return Mp4Writer(target, fps=fps, crf=crf, metadata=metadata)
     if suffix == ".gif":
-        return GifWriter(target, fps=fps)
+        return GifWriter(target, fps=fps, metadata=metadata)
     if suffix == ".png":
         check.positive("fps", fps)
-        return PngWriter(target)
+        return PngWriter(target, metadata=metadata)
     raise ValueError(
         f"cannot write frames to {text!r}: the suffix must be one of {', '.join(SUFFIXES)}, "
         "or the path a directory (end it with '/') for numbered PNG files"
@@ -650,12 +729,78 @@ def save_image(path, image: np.ndarray) -> None:
     _save_png(path, _check_image("image", image, channels=(3, 4)))
 
 
-def _save_png(path: Path, image: np.ndarray) -> None:
-    from PIL import Image
+def _save_png(path: Path, image: np.ndarray, metadata: dict[str, str] | None = None) -> None:
+    from PIL import Image, PngImagePlugin
 
+    info = None
+    if metadata:
+        info = PngImagePlugin.PngInfo()
+        for key, value in metadata.items():
+            # iTXt (UTF-8) where tEXt's Latin-1 cannot hold the value (a path, a name)
+            if value.isascii():
+                info.add_text(key, value)
+            else:
+                info.add_itxt(key, value)
     with replacing(path) as tmp:
         # the mode follows from the shape: (h, w, 3) is RGB, (h, w, 4) RGBA
-        Image.fromarray(image).save(tmp, format="PNG")
+        Image.fromarray(image).save(tmp, format="PNG", pnginfo=info)
+
+
+def read_metadata(path) -> dict:
+    """The metadata a writer recorded in ``path`` (see the module notes).
+
+    ``path`` is a PNG, GIF or MP4 file, or a PNG sequence directory (its ``frames.json``,
+    which adds ``frames``, ``prefix`` and ``start``). Returns ``{}`` when there is none.
+    """
+    path = Path(path)
+    if path.is_dir():
+        side = path / SEQUENCE_METADATA
+        return json.loads(side.read_text()) if side.is_file() else {}
+    suffix = path.suffix.lower()
+    if suffix in (".png", ".gif"):
+        from PIL import Image
+
+        with Image.open(path) as image:
+            if suffix == ".png":
+                return dict(image.text)
+            comment = image.info.get("comment", b"")
+        return json.loads(comment) if comment else {}
+    if suffix == ".mp4":
+        return _mp4_comment(path)
+    raise ValueError(f"cannot read metadata of {str(path)!r}: not a .png, .gif, .mp4 or folder")
+
+
+def _mp4_comment(path: Path) -> dict:
+    """The JSON ``comment`` tag, read with ffmpeg's metadata muxer (``ffmetadata``
+    escapes ``=``, ``;``, ``#``, ``\\`` and newlines with a backslash)."""
+    import imageio_ffmpeg
+
+    if not path.is_file():
+        raise FileNotFoundError(f"no such file: {str(path)!r}")
+    result = subprocess.run(
+        [imageio_ffmpeg.get_ffmpeg_exe(), "-v", "error", "-i", str(path), "-f", "ffmetadata", "-"],
+        capture_output=True,
+        check=True,
+    )
+    text = result.stdout.decode("utf-8")
+    # Join continued lines (an escaped newline), then split on unescaped newlines.
+    lines, current, escaped = [], [], False
+    for char in text:
+        if escaped:
+            current.append(char)
+            escaped = False
+        elif char == "\\":
+            escaped = True
+        elif char == "\n":
+            lines.append("".join(current))
+            current = []
+        else:
+            current.append(char)
+    lines.append("".join(current))
+    for line in lines:
+        if line.startswith("comment="):
+            return json.loads(line[len("comment=") :])
+    return {}
 
 
 def read_image(path) -> np.ndarray:

@@ -18,7 +18,7 @@ from ..integrate.implicit import ImplicitEuler
 from ..render import geometry
 from ..render.shading import Material
 from .bodies import Body, BuildContext, register
-from .parts import euler_rotation
+from .parts import MESH_SUFFIXES, euler_rotation, is_mesh_collider
 from .schema import (
     SceneError,
     Table,
@@ -30,7 +30,7 @@ from .schema import (
     number,
     one_of,
     positive,
-    string,
+    scene_file,
     vector,
 )
 
@@ -198,7 +198,7 @@ def build_cloth(table: Table, context: BuildContext) -> ClothBody:
             **options,
         )
     else:
-        path = context.base / table.get("mesh", string)
+        path = table.get("mesh", scene_file(context.base, suffixes=MESH_SUFFIXES, what="mesh file"))
         try:
             cloth = Cloth.from_mesh(path, **options)
         except OSError as error:
@@ -267,6 +267,19 @@ class HairBody(Body):
         return self.hair.particle_state()
 
 
+def _hair_colliders(table: Table, context: BuildContext) -> list:
+    if not table.get("colliders", boolean, True):
+        return []
+    for collider in context.colliders:
+        if is_mesh_collider(collider):
+            raise SceneError(
+                table.key_path("colliders"),
+                "hair collides with planes, spheres and boxes, not with the scene's "
+                "triangle-mesh collider; set colliders = false",
+            )
+    return list(context.colliders)
+
+
 @register("hair")
 def build_hair(table: Table, context: BuildContext) -> HairBody:
     """Strands on a head that may move (``translation``, ``rotation`` keyframes)."""
@@ -305,7 +318,7 @@ def build_hair(table: Table, context: BuildContext) -> HairBody:
         air_damping=table.get("air_damping", number(0.0), 1.0),
         gravity=table.get("gravity", vector(), (0.0, -9.81, 0.0)),
         thickness=table.get("thickness", number(0.0), 0.004),
-        colliders=list(context.colliders) if table.get("colliders", boolean, True) else [],
+        colliders=_hair_colliders(table, context),
         solver=_solver(table, 1e-2),
         seed=context.seed % (2**32),
     )

@@ -20,6 +20,7 @@ from ..render.shading import Material
 from ..render.sprites import SpriteStyle
 from ..state import Field
 from .bodies import Body, BuildContext, register
+from .parts import placed_mesh
 from .schema import (
     SceneError,
     Table,
@@ -178,8 +179,27 @@ def _phases(table: Table):
     return tuple(phases), colors
 
 
-def _wall(item: Table, walls_drawn: list, shakes: list):
-    kind = item.get("type", one_of("plane", "tank", "box", "sphere"))
+def _mesh_wall(item: Table, walls_drawn: list, base):
+    mesh = placed_mesh(item, base, movable=True)
+    wall = build(
+        item.path,
+        fluids.MeshWall,
+        mesh,
+        thickness=item.get("thickness", number(0.0), 0.0),
+        friction=item.get("friction", number(0.0), 0.0),
+        restitution=item.get("restitution", number(0.0, 1.0), 0.0),
+    )
+    if item.get("visible", boolean, True):
+        rgb = item.get("color", color, (0.55, 0.55, 0.58))[:3]
+        walls_drawn.append(geometry.Mesh(mesh, color=rgb))
+    item.finish()
+    return wall
+
+
+def _wall(item: Table, walls_drawn: list, shakes: list, base):
+    kind = item.get("type", one_of("plane", "tank", "box", "sphere", "mesh"))
+    if kind == "mesh":
+        return _mesh_wall(item, walls_drawn, base)
     options = {
         "adhesion": item.get("adhesion", number(0.0), 0.0),
         "friction": item.get("friction", number(0.0), 0.0),
@@ -251,7 +271,7 @@ def build_fluid(table: Table, context: BuildContext) -> FluidBody:
     spacing = table.get("spacing", positive())
     phases, colors = _phases(table)
     drawn, shakes = [], []
-    walls = [_wall(item, drawn, shakes) for item in table.tables("wall")]
+    walls = [_wall(item, drawn, shakes, context.base) for item in table.tables("wall")]
     settings = {
         "kernel_ratio": table.get("kernel_ratio", number(), 2.0),
         "iterations": table.get("iterations", integer(), 4),

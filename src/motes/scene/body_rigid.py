@@ -144,6 +144,8 @@ def ragdoll_stairs(table: Table, context: BuildContext) -> RigidScene:
         (0.0, rise * steps, run / 2),
         height=table.get("height", positive(), 1.75),
         mass=table.get("mass", positive(), 70.0),
+        compliance=table.get("compliance", number(0.0), 0.0),
+        hinge_sides=table.get("hinge_sides", boolean, False),
     )
     world.set_velocity(doll.indices, table.get("throw", vector(), (0.0, 1.0, 2.5)))
     head = doll.particles["head"]

@@ -6,10 +6,11 @@ import numpy as np
 
 from ..io.frames import read_image
 from ..render import geometry
+from ..render.metaballs import Metaballs
 from ..render.renderer import Renderer, background_from
-from ..render.shading import AmbientLight, DirectionalLight, default_lights
+from ..render.shading import AmbientLight, DirectionalLight, Material, default_lights
 from ..render.sprites import SpriteStyle
-from .scene import ParticleLook, SceneObject
+from .scene import ParticleLook, SceneObject, SurfaceLook
 from .schema import SceneError
 
 
@@ -28,10 +29,14 @@ class SceneRenderer:
             supersample=settings.supersample,
         )
         self.objects = [_drawable(o) for o in scene.objects]
+        shown = {name: look for name, look in scene.looks.items() if look.visible}
         self.styles = {
             name: _style(look, f"system.{name}.render")
-            for name, look in scene.looks.items()
-            if look.visible
+            for name, look in shown.items()
+            if look.surface is None
+        }
+        self.surfaces = {
+            name: _Surface(look.surface) for name, look in shown.items() if look.surface
         }
 
     @property
@@ -39,12 +44,45 @@ class SceneRenderer:
         return self.renderer.resolution
 
     def render_scene(self, scene) -> np.ndarray:
+        if scene.camera_path is not None:
+            self.renderer.camera = scene.camera_at(scene.time, self.resolution)
         systems = [(scene.systems[name], style) for name, style in self.styles.items()]
         objects = list(self.objects)
+        for name, surface in self.surfaces.items():
+            objects.extend(surface.drawables(scene.systems[name]))
         for body in scene.bodies.values():
             systems.extend(body.particles())
             objects.extend(body.drawables())
         return self.renderer.render(systems, objects)
+
+
+class _Surface:
+    """A system's particles as one shaded metaball surface (Blinn's field, polygonised by
+    marching cubes: :class:`~motes.render.metaballs.Metaballs`), as liquids draw."""
+
+    def __init__(self, look: SurfaceLook):
+        self.look = look
+        self.metaballs = Metaballs.from_radius(
+            look.radius,
+            sharpness=look.sharpness,
+            threshold=look.threshold,
+            cell_size=look.cell_size,
+        )
+        self.material = Material(specular=look.specular, shininess=48.0)
+
+    def drawables(self, system) -> list:
+        if len(system) < 2:
+            return []
+        mesh = self.metaballs.mesh(system["position"])
+        if len(mesh.faces) == 0:
+            return []
+        rgb = self.look.color
+        if rgb is None:
+            rgb = system["color"][:, :3].mean(axis=0) if system.store.has("color") else _GREY
+        return [geometry.Mesh(mesh, color=tuple(float(c) for c in rgb[:3]), material=self.material)]
+
+
+_GREY = (0.7, 0.7, 0.7)
 
 
 def _lights(lights):
@@ -86,6 +124,8 @@ def _drawable(obj: SceneObject):
         return geometry.Ground(
             height=p.get("height", 0.0), size=p.get("size"), color=color, checker=checker
         )
+    if obj.kind == "mesh":
+        return geometry.Mesh(p["mesh"], color=color)
     if obj.kind == "sphere":
         return geometry.Sphere(p.get("center", (0.0, 0.0, 0.0)), p.get("radius", 1.0), color=color)
     rotation = p.get("matrix")

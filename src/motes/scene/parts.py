@@ -8,6 +8,7 @@ constructor, whose own range checks are reported with the key path (see ``schema
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -28,8 +29,12 @@ from .schema import (
     number,
     one_of,
     positive,
+    scene_file,
     vector,
 )
+
+#: Mesh files the scene reads (``motes.io.meshes``).
+MESH_SUFFIXES = (".obj", ".ply")
 
 # --- distributions ------------------------------------------------------------------------
 
@@ -136,8 +141,40 @@ def _variant(table: Table, variants: dict, what: str):
     return result
 
 
-def shape(value, path):
-    return _variant(Table(value, path), _SHAPES, "shape")
+def shape(value, path, base: Path):
+    """An emitter shape; ``base`` is the folder a mesh file is read from."""
+    variants = {**_SHAPES, "mesh": lambda t: _mesh_surface(t, base)}
+    return _variant(Table(value, path), variants, "shape")
+
+
+def _mesh_surface(table: Table, base: Path):
+    mesh = placed_mesh(table, base)
+    return build(table.key_path("path"), shapes.MeshSurface, mesh.vertices, mesh.faces)
+
+
+def placed_mesh(table: Table, base: Path, *, movable: bool = False):
+    """A triangle mesh read from the file ``path`` (relative to ``base``, see
+    ``schema.scene_file``), scaled by ``scale``, turned by ``rotation`` (angles [deg]) and,
+    when ``movable``, moved by ``position`` [m], in that order."""
+    from ..io.meshes import read_mesh
+
+    file = table.get("path", scene_file(base, suffixes=MESH_SUFFIXES, what="mesh file"))
+    scale = table.get("scale", positive(), 1.0)
+    rotation = table.get("rotation", euler_rotation, None)
+    offset = table.get("position", vector(), (0.0, 0.0, 0.0)) if movable else (0.0, 0.0, 0.0)
+    try:
+        mesh = read_mesh(file)
+    except OSError as error:
+        raise SceneError(table.key_path("path"), f"cannot read {file}: {error}") from None
+    except ValueError as error:  # MeshFormatError names the file and line
+        raise SceneError(table.key_path("path"), str(error)) from None
+    if len(mesh.faces) == 0:
+        raise SceneError(table.key_path("path"), f"{file} holds no triangles")
+    vertices = scale * mesh.vertices.astype(np.float64)
+    if rotation is not None:
+        vertices = vertices @ rotation.T
+    vertices = vertices + np.asarray(offset)
+    return type(mesh)(vertices, mesh.faces)
 
 
 def direction(value, path):
@@ -188,8 +225,9 @@ def _position(value, path):
     return vector()(value, path)
 
 
-def emitter(table: Table, camera, *, template: bool = False) -> emit.Emitter:
-    """An emitter; a ``template`` (for child systems) has no rate and an optional shape."""
+def emitter(table: Table, camera, base: Path, *, template: bool = False) -> emit.Emitter:
+    """An emitter; a ``template`` (for child systems) has no rate and an optional shape.
+    ``base`` is the folder files it names (mesh shapes) are read from."""
     kwargs = {
         "position": table.get("position", _position, (0.0, 0.0, 0.0)),
         "lifetime": table.get("lifetime", distribution, 1.0),
@@ -199,7 +237,7 @@ def emitter(table: Table, camera, *, template: bool = False) -> emit.Emitter:
     }
     for key in ("color", "size", "mass", "rotation"):
         kwargs[key] = table.get(key, distribution, None)
-    the_shape = table.get("shape", shape, None)
+    the_shape = table.get("shape", lambda v, p: shape(v, p, base), None)
     the_rate = None if template else table.get("rate", lambda v, p: rate(v, p, camera))
     table.finish()
     return build(table.path, emit.Emitter, the_shape, the_rate, **kwargs)
@@ -282,9 +320,39 @@ def euler_rotation(value, path):
     return rz @ ry @ rx
 
 
-def collider(table: Table):
-    """A collider; returns ``(collider, visible, colour)`` (visible ones are also drawn)."""
-    kind = table.get("type", one_of("plane", "sphere", "box"))
+def collider(table: Table, base: Path):
+    """A collider; returns ``(collider, drawable, colour)``: ``drawable`` is ``None`` for
+    a hidden collider, else what to draw (the collider, or for a mesh its
+    ``TriangleMesh``). Mesh files are read relative to ``base``."""
+    kind = table.get("type", one_of("plane", "sphere", "box", "mesh"))
+    result = _mesh_collider(table, base) if kind == "mesh" else _shape_collider(table, kind)
+    visible = table.get("visible", boolean, False)
+    tint = table.get("color", color, (0.6, 0.6, 0.6, 1.0))
+    table.finish()
+    drawable = None
+    if visible:
+        drawable = result.mesh if kind == "mesh" else result
+    return result, drawable, tint
+
+
+def _mesh_collider(table: Table, base: Path):
+    """A triangle mesh as a thin two-sided shell (rigid worlds, cloth): Coulomb friction
+    from the penetration depth, restitution of swept hits."""
+    from ..collide.mesh import TriangleMeshCollider
+
+    mesh = placed_mesh(table, base, movable=True)
+    return build(
+        table.path,
+        TriangleMeshCollider,
+        mesh,
+        thickness=table.get("thickness", number(0.0), 0.0),
+        cell_size=table.get("cell_size", positive(), None),
+        restitution=table.get("restitution", number(0.0), 0.5),
+        friction=table.get("friction", number(0.0), 0.0),
+    )
+
+
+def _shape_collider(table: Table, kind: str):
     response = {
         "restitution": table.get("restitution", number(0.0), 0.5),
         "friction": table.get("friction", number(0.0), 0.0),
@@ -293,7 +361,7 @@ def collider(table: Table):
         "inside": table.get("inside", boolean, False),
     }
     if kind == "plane":
-        result = build(
+        return build(
             table.path,
             colliders.Plane,
             table.get("normal", vector(), (0.0, 1.0, 0.0)),
@@ -301,27 +369,29 @@ def collider(table: Table):
             point=table.get("point", vector(), None),
             **response,
         )
-    elif kind == "sphere":
-        result = build(
+    if kind == "sphere":
+        return build(
             table.path,
             colliders.Sphere,
             table.get("center", vector(), (0.0, 0.0, 0.0)),
             table.get("radius", positive(), 1.0),
             **response,
         )
-    else:
-        result = build(
-            table.path,
-            colliders.Box,
-            table.get("center", vector(), (0.0, 0.0, 0.0)),
-            table.get("size", vector(), (1.0, 1.0, 1.0)),
-            rotation=table.get("rotation", euler_rotation, None),
-            **response,
-        )
-    visible = table.get("visible", boolean, False)
-    tint = table.get("color", color, (0.6, 0.6, 0.6, 1.0))
-    table.finish()
-    return result, visible, tint
+    return build(
+        table.path,
+        colliders.Box,
+        table.get("center", vector(), (0.0, 0.0, 0.0)),
+        table.get("size", vector(), (1.0, 1.0, 1.0)),
+        rotation=table.get("rotation", euler_rotation, None),
+        **response,
+    )
+
+
+def is_mesh_collider(collider) -> bool:
+    """Whether ``collider`` is a triangle mesh (which emitter systems cannot take)."""
+    from ..collide.mesh import TriangleMeshCollider
+
+    return isinstance(collider, TriangleMeshCollider)
 
 
 # --- life ---------------------------------------------------------------------------------

@@ -15,11 +15,13 @@ from pathlib import Path
 import numpy as np
 
 from .. import hierarchy
+from ..collide.colliders import Collider
 from ..render.camera import Camera, Projection
 from ..state import ParticleState
 from ..system import ParticleSystem
 from . import parts
 from .bodies import Body, BuildContext, build_body
+from .camera_path import CameraPath
 from .schema import (
     SceneError,
     Table,
@@ -32,6 +34,7 @@ from .schema import (
     number,
     one_of,
     positive,
+    scene_file,
     string,
     vector,
 )
@@ -40,16 +43,29 @@ BUILTIN_DIR = Path(__file__).with_name("builtin")
 
 
 @dataclass
+class SurfaceLook:
+    """A system drawn as one metaball surface (``[system.render] kind = "surface"``)."""
+
+    radius: float = 0.1  # [m] of a lone particle's sphere
+    sharpness: float = 1.5
+    threshold: float = 1.0
+    cell_size: float | None = None  # [m]; None: radius / 2
+    specular: float = 0.6
+    color: tuple | None = None  # None: the particles' mean colour
+
+
+@dataclass
 class ParticleLook:
     """How one system's particles are drawn (the ``[system.render]`` table)."""
 
-    kind: str = "sprite"  # "sprite" or "point"
+    kind: str = "sprite"  # "sprite", "point" or "surface"
     blend: str = "additive"  # "additive" or "alpha"
     softness: float = 0.0  # [m]; 0 = hard depth test
     shutter: float = 0.0  # [s]; > 0 draws motion-blur streaks
     intensity: float = 1.0
     texture: Path | None = None
     visible: bool = True
+    surface: SurfaceLook | None = None  # kind "surface"
 
 
 @dataclass
@@ -87,6 +103,9 @@ class Scene:
     bodies : dict[str, Body]
         Cloths, strands, rigid bodies, liquids (``[[body]]``), stepped after the systems
         in each substep.
+    camera_path : CameraPath or None
+        Keyframes (``[[camera.key]]``) that move the camera :meth:`render` draws with;
+        ``camera`` keeps the ``[camera]`` table's view (screen-scaled emission uses it).
     """
 
     def __init__(
@@ -105,6 +124,7 @@ class Scene:
         objects,
         bodies=None,
         source=None,
+        camera_path=None,
     ):
         self.name = name
         self.description = description
@@ -119,6 +139,7 @@ class Scene:
         self.objects = objects
         self.bodies: dict[str, Body] = dict(bodies or {})
         self.source = source
+        self.camera_path: CameraPath | None = camera_path
         children = {id(c) for s in systems.values() for c in s.children}
         self.roots = [s for s in systems.values() if id(s) not in children]
         self.frame = 0
@@ -157,11 +178,23 @@ class Scene:
         states.update((name, body.particle_state()) for name, body in self.bodies.items())
         return states
 
+    def camera_at(self, time: float | None = None, resolution=None) -> Camera:
+        """The camera that draws the scene at ``time`` [s] (default: now): ``camera``
+        moved along ``camera_path``, at ``resolution`` (default: the camera's)."""
+        resolution = self.camera.resolution if resolution is None else tuple(resolution)
+        if self.camera_path is None:
+            return self.camera.with_resolution(resolution)
+        position, target, fov = self.camera_path.at(self.time if time is None else time)
+        c = self.camera
+        return Camera(position, target, up=c.up, fov=fov, resolution=resolution, near=c.near,
+                      far=c.far, projection=c.projection, height=c.height)  # fmt: skip
+
     def render(self, resolution=None) -> np.ndarray:
         """The current frame as a (height, width, 3) uint8 sRGB image.
 
         ``resolution`` is ``(width, height)`` [px]; ``None`` uses the camera's. One
-        renderer is kept per resolution (a gallery renders stills and thumbnails).
+        renderer is kept per resolution (a gallery renders stills and thumbnails). A
+        keyframed camera (``camera_path``) is placed at the scene's time.
         """
         from .drawing import SceneRenderer
 
@@ -220,9 +253,10 @@ def _read_source(source) -> tuple[str, str, Path]:
     raise TypeError(f"source must be a scene name, a path or TOML text, got {source!r}")
 
 
-def _camera(table: Table | None) -> Camera:
+def _camera(table: Table | None) -> tuple[Camera, CameraPath | None]:
+    """The ``[camera]`` table: the camera, and its keyframed path if it has keys."""
     if table is None:
-        return Camera()
+        return Camera(), None
     kwargs = {
         "position": table.get("position", vector(), (0.0, 1.0, 5.0)),
         "target": table.get("target", vector(), (0.0, 1.0, 0.0)),
@@ -236,8 +270,38 @@ def _camera(table: Table | None) -> Camera:
         ),
         "height": table.get("height", positive(), 2.0),
     }
+    keys = table.tables("key")
     table.finish()
-    return build(table.path, Camera, **kwargs)
+    camera = build(table.path, Camera, **kwargs)
+    return camera, _camera_path(keys, camera, table.key_path("key"))
+
+
+def _camera_path(keys: list[Table], camera: Camera, path: str) -> CameraPath | None:
+    """``[[camera.key]]`` tables; a key without ``position``, ``target`` or ``fov``
+    keeps the previous key's (the first key: the ``[camera]`` table's)."""
+    if not keys:
+        return None
+    times, positions, targets, fovs = [], [], [], []
+    position, target, fov = tuple(camera.position), tuple(camera.target), camera.fov
+    fov_reader = number(0.0, 180.0, low_open=True, high_open=True)
+    for key in keys:
+        time = key.get("time", number(0.0))
+        if times and time <= times[-1]:
+            raise SceneError(
+                key.key_path("time"), f"must be later than the key before ({times[-1]}), got {time}"
+            )
+        position = key.get("position", vector(), position)
+        target = key.get("target", vector(), target)
+        fov = key.get("fov", fov_reader, fov)
+        key.finish()
+        # Each key must be a valid view on its own (target away from the eye, up not
+        # along the view): the constructor's checks, reported at the key.
+        build(key.path, Camera, position, target, up=camera.up, fov=fov)
+        times.append(time)
+        positions.append(position)
+        targets.append(target)
+        fovs.append(fov)
+    return build(path, CameraPath, times, positions, targets, fovs)
 
 
 def _background(value, path):
@@ -276,16 +340,25 @@ def _look(table: Table | None, base: Path) -> ParticleLook:
     look = ParticleLook()
     if table is None:
         return look
-    look.kind = table.get("kind", one_of("sprite", "point"), "sprite")
+    look.kind = table.get("kind", one_of("sprite", "point", "surface"), "sprite")
+    if look.kind == "surface":
+        radius = table.get("radius", positive(), 0.1)
+        look.surface = SurfaceLook(
+            radius=radius,
+            sharpness=table.get("sharpness", positive(), 1.5),
+            threshold=table.get("threshold", positive(), 1.0),
+            cell_size=table.get("cell_size", positive(), 0.5 * radius),
+            specular=table.get("specular", number(0.0), 0.6),
+            color=table.get("color", color, None),
+        )
+        look.visible = table.get("visible", boolean, True)
+        table.finish()
+        return look
     look.blend = table.get("blend", one_of("additive", "alpha"), "additive")
     look.softness = table.get("softness", number(0.0), 0.0)
     look.shutter = table.get("shutter", number(0.0, 1.0), 0.0)
     look.intensity = table.get("intensity", number(0.0), 1.0)
-    texture = table.get("texture", string, None)
-    if texture is not None:
-        look.texture = (base / texture).resolve()
-        if not look.texture.is_file():
-            raise SceneError(table.key_path("texture"), f"image file not found: {look.texture}")
+    look.texture = table.get("texture", scene_file(base, what="image file"), None)
     look.visible = table.get("visible", boolean, True)
     table.finish()
     return look
@@ -318,7 +391,9 @@ _COLLIDER_OBJECTS = {"plane": "ground", "sphere": "sphere", "box": "box"}
 
 
 def _collider_object(collider, tint) -> SceneObject:
-    """The drawable twin of a visible collider."""
+    """The drawable twin of a visible collider (a mesh collider passes its mesh)."""
+    if not isinstance(collider, Collider):
+        return SceneObject("mesh", {"mesh": collider}, tint)
     kind = type(collider).__name__.lower()
     if kind == "plane":
         normal = np.asarray(collider.normal, dtype=float)
@@ -351,16 +426,17 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
     if seed_override is not None:
         seed = integer(0)(seed_override, "seed")
     head.finish()
-    camera = _camera(root.table("camera", optional=True))
+    camera, camera_path = _camera(root.table("camera", optional=True))
     render = _render_settings(root.table("render", optional=True))
 
     objects = [_object(t) for t in root.tables("object")]
-    shared = []
+    shared, shared_paths = [], []
     for t in root.tables("collider"):
-        c, visible, tint = parts.collider(t)
+        c, drawn, tint = parts.collider(t, base)
         shared.append(c)
-        if visible:
-            objects.append(_collider_object(c, tint))
+        shared_paths.append(t.path)
+        if drawn is not None:
+            objects.append(_collider_object(drawn, tint))
 
     system_tables = root.tables("system")
     body_tables = root.tables("body")
@@ -388,18 +464,20 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
             compaction=t.get("compaction", one_of("stable", "swap"), "stable"),
         )
         for e in t.tables("emitter"):
-            system.add(parts.emitter(e, camera))
+            system.add(parts.emitter(e, camera, base))
         for f in t.tables("force"):
             system.add(parts.force(f))
         for m in t.tables("modifier"):
             system.add(parts.modifier(m))
         for c in t.tables("collider"):
-            collider, visible, tint = parts.collider(c)
+            collider, drawn, tint = parts.collider(c, base)
+            _refuse_mesh(collider, c.path, system_name)
             system.add(collider)
-            if visible:
-                objects.append(_collider_object(collider, tint))
+            if drawn is not None:
+                objects.append(_collider_object(drawn, tint))
         if t.get("shared_colliders", boolean, True):
-            for c in shared:
+            for c, path in zip(shared, shared_paths, strict=True):
+                _refuse_mesh(c, path, system_name, shared=True)
                 system.add(c)
         pending_children.extend((system, c) for c in t.tables("child"))
         pending_contacts.extend((system, c) for c in t.tables("contact"))
@@ -415,7 +493,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
             c.path,
             hierarchy.SpawnOnEvent,
             child,
-            parts.emitter(template, camera, template=True),
+            parts.emitter(template, camera, base, template=True),
             on=c.get("on", one_of(*parts.EVENT_KINDS), "death"),
             count=c.get("count", _count, 1),
             inherit=tuple(c.get("inherit", array_of(string), [])),
@@ -448,6 +526,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         objects=objects,
         bodies=bodies,
         source=origin,
+        camera_path=camera_path,
     )
 
 
@@ -467,6 +546,22 @@ def _contact(table: Table, bodies: dict[str, Body]):
 
 def _no_bodies(value, path):
     raise SceneError(path, f"names body {value!r}, but the scene has no [[body]]")
+
+
+def _refuse_mesh(collider, path: str, system_name: str, *, shared: bool = False) -> None:
+    """Emitter systems collide in the fused step kernel, which has no triangle meshes."""
+    if parts.is_mesh_collider(collider):
+        hint = (
+            f"set shared_colliders = false in system {system_name!r}, or use the mesh "
+            "with bodies only"
+            if shared
+            else "use planes, spheres or boxes here"
+        )
+        raise SceneError(
+            path,
+            f"a triangle-mesh collider cannot act on the emitter system {system_name!r} "
+            f"(meshes collide with rigid, cloth and fluid bodies only); {hint}",
+        )
 
 
 def _default_name(origin: str) -> str:

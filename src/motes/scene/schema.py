@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from ..color import parse_color
@@ -176,6 +177,41 @@ def file_name(value, path):
             f"starting with a letter or digit, no '/' or '..'), got {text!r}",
         )
     return text
+
+
+def scene_file(base: Path, *, suffixes: tuple[str, ...] = (), what: str = "file") -> Reader:
+    """An existing file named relative to the scene file's folder ``base``.
+
+    A relative path must stay inside ``base`` (``../`` that leaves it is refused, so a
+    scene cannot reach files beside it by accident); an absolute path is taken as is.
+    ``suffixes`` (lower case, with the dot) limits the file types; ``what`` names the
+    kind of file in messages.
+    """
+
+    def read(value, path):
+        text = string(value, path)
+        if not text:
+            raise SceneError(path, "must be a file name, got ''")
+        given = Path(text).expanduser()
+        if given.is_absolute():
+            resolved = given.resolve()
+        else:
+            root = Path(base).resolve()
+            resolved = (root / given).resolve()
+            if not resolved.is_relative_to(root):
+                raise SceneError(
+                    path,
+                    f"{text!r} leaves the scene file's folder {str(root)!r}; "
+                    "use a path inside it or an absolute path",
+                )
+        if suffixes and resolved.suffix.lower() not in suffixes:
+            allowed = ", ".join(suffixes)
+            raise SceneError(path, f"must be a {allowed} file, got {text!r}")
+        if not resolved.is_file():
+            raise SceneError(path, f"{what} not found (cannot read {resolved})")
+        return resolved
+
+    return read
 
 
 def one_of(*choices: str) -> Reader:
