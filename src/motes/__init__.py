@@ -10,6 +10,7 @@ True
 """
 
 from . import colliders, constrain, fluids, io, render, rigid, scene, shapes, spatial
+from ._version import __version__ as __version__
 from .cloth import Airflow, Cloth, Keyframes, SpringFamily
 from .collide import Capsule, Friction, Response, TriangleMeshCollider
 from .constrain import ConstraintBuilder
@@ -73,8 +74,6 @@ from .rigid import World as RigidWorld
 from .scene import Scene, SceneError, load_scene
 from .spatial import UniformGrid
 from .system import ParticleSystem
-
-__version__ = "0.1.0"
 
 __all__ = [
     "Airflow",

@@ -106,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
     if args.version:
-        from .. import __version__
+        from .._version import __version__
 
         print(f"motes {__version__}")
         return 0
@@ -152,7 +152,7 @@ def _default_output(scene_name: str) -> str:
 
 def _record(scene) -> dict[str, str]:
     """What an output records of how it was made: enough to make it again."""
-    from .. import __version__
+    from .._version import __version__
 
     return {
         "scene": scene.name,

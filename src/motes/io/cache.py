@@ -238,7 +238,7 @@ class CacheWriter:
 
         With no frame added, nothing is written (an existing file is kept).
         """
-        from .. import __version__
+        from .._version import __version__
 
         if self._closed:
             return

@@ -3,7 +3,8 @@
 The format is documented key by key in ``docs/scene-format.md``.
 """
 
-from .scene import ParticleLook, RenderSettings, Scene, SceneObject, builtin_scenes, load_scene
+from .looks import ParticleLook, RenderSettings, SceneObject
+from .scene import Scene, builtin_scenes, load_scene
 from .schema import SceneError
 
 __all__ = [

@@ -10,7 +10,7 @@ from ..render.metaballs import Metaballs
 from ..render.renderer import Renderer, background_from
 from ..render.shading import AmbientLight, DirectionalLight, Material, default_lights
 from ..render.sprites import SpriteStyle
-from .scene import ParticleLook, SceneObject, SurfaceLook
+from .looks import ParticleLook, SceneObject, SurfaceLook
 from .schema import SceneError
 
 

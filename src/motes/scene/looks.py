@@ -1,0 +1,56 @@
+"""How a scene looks: its render settings, opaque objects and each system's look.
+
+Plain data read from a scene file by :mod:`.scene` and turned into renderer calls by
+:mod:`.drawing`; both import it, and drawing needs nothing of the scene module.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+
+@dataclass
+class SurfaceLook:
+    """A system drawn as one metaball surface (``[system.render] kind = "surface"``)."""
+
+    radius: float = 0.1  # [m] of a lone particle's sphere
+    sharpness: float = 1.5
+    threshold: float = 1.0
+    cell_size: float | None = None  # [m]; None: radius / 2
+    specular: float = 0.6
+    color: tuple | None = None  # None: the particles' mean colour
+
+
+@dataclass
+class ParticleLook:
+    """How one system's particles are drawn (the ``[system.render]`` table)."""
+
+    kind: str = "sprite"  # "sprite", "point" or "surface"
+    blend: str = "additive"  # "additive" or "alpha"
+    softness: float = 0.0  # [m]; 0 = hard depth test
+    shutter: float = 0.0  # [s]; > 0 draws motion-blur streaks
+    intensity: float = 1.0
+    texture: Path | None = None
+    visible: bool = True
+    surface: SurfaceLook | None = None  # kind "surface"
+
+
+@dataclass
+class RenderSettings:
+    """The ``[render]`` table."""
+
+    background: tuple = ((0.0, 0.0, 0.0, 1.0), None)
+    exposure: float = 1.0
+    tonemap: str = "aces"
+    supersample: int = 2
+    lights: list = field(default_factory=list)  # (direction, colour, intensity)
+
+
+@dataclass
+class SceneObject:
+    """An opaque object to draw: ``kind`` is ground, sphere or box, ``params`` its sizes."""
+
+    kind: str
+    params: dict
+    color: tuple
