@@ -72,7 +72,7 @@ def scene_with(extra: str, system_extra: str = "") -> str:
     ("text", "path", "message"),
     [
         # unknown keys, at each level
-        ("[scene]\ndurashun = 2\n" + scene_with(""), "scene.durashun", "unknown key; allowed"),
+        ("[scene]\ndurashun = 2\n" + scene_with(""), "scene.durashun", "did you mean 'duration'"),
         (scene_with("", "colour = 1"), "system[0].colour", "unknown key"),
         (
             scene_with("", '[[system.emitter]]\nrate = { type = "per_second", rate = 1, x = 2 }'),

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import sys
 import time
 from pathlib import Path
@@ -98,6 +99,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
     sub.add_parser("scenes", help="list the built-in scenes")
+    show = sub.add_parser(
+        "show",
+        help="print a built-in scene's TOML (a start for a scene of your own)",
+        description="Print a built-in scene file, e.g. motes show fire > my_fire.toml",
+    )
+    show.add_argument("scene", metavar="NAME", help="built-in scene name")
     sub.add_parser("demo", help="render the built-in fire to fire.mp4 (same as: motes run fire)")
     return parser
 
@@ -118,6 +125,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "scenes":
             return _list_scenes()
+        if args.command == "show":
+            return _show(args.scene)
         return _run(args)
     except UserError as error:
         print(f"motes: error: {error}", file=sys.stderr)
@@ -125,6 +134,23 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("\nmotes: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # The reader went away (``motes scenes | head``): not an error of ours. Point
+        # stdout at /dev/null so that the interpreter's final flush does not fail too.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+
+
+def _show(name: str) -> int:
+    from ..scene import SceneError
+    from ..scene.scene import builtin_text
+
+    try:
+        sys.stdout.write(builtin_text(name))
+    except SceneError as error:
+        raise UserError(str(error)) from None
+    sys.stdout.flush()  # a closed pipe fails here, where main() reports it quietly
+    return 0
 
 
 def _list_scenes() -> int:
@@ -134,6 +160,7 @@ def _list_scenes() -> int:
     width = max(map(len, scenes), default=0)
     for name, description in scenes.items():
         print(f"{name:<{width}}  {description}")
+    sys.stdout.flush()  # a closed pipe fails here, where main() reports it quietly
     return 0
 
 

@@ -28,6 +28,7 @@ from .schema import (
     array_of,
     boolean,
     build,
+    close_matches,
     color,
     file_name,
     integer,
@@ -188,20 +189,34 @@ def load_scene(source, *, seed: int | None = None) -> Scene:
     return _build_scene(Table(data, ""), origin, base, seed)
 
 
+def builtin_text(name: str) -> str:
+    """The TOML text of built-in scene ``name``; a clear error, with a guess, otherwise."""
+    path = BUILTIN_DIR / f"{name}.toml"
+    if path.is_file() and name == path.stem:
+        return path.read_text()
+    names = builtin_scenes()
+    guess = close_matches(name, names)
+    hint = f"did you mean {guess[0]!r}? " if guess else ""
+    raise SceneError(
+        "", f"no built-in scene {name!r} and no such file; {hint}built-in: {', '.join(names)}"
+    )
+
+
 def _read_source(source) -> tuple[str, str, Path]:
     if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source):
         path = Path(source)
         if path.suffix != ".toml" and "/" not in str(source):
-            builtin = BUILTIN_DIR / f"{source}.toml"
-            if builtin.exists():
-                return builtin.read_text(), str(source), BUILTIN_DIR
-            names = ", ".join(builtin_scenes())
-            raise SceneError(
-                "", f"no built-in scene {source!r} and no such file; built-in: {names}"
-            )
+            return builtin_text(str(source)), str(source), BUILTIN_DIR
+        if path.is_dir():
+            raise SceneError("", f"{path} is a directory; give a .toml scene file")
         if not path.is_file():
             raise SceneError("", f"scene file not found: {path}")
-        return path.read_text(), str(path), path.parent
+        try:
+            return path.read_bytes().decode("utf-8"), str(path), path.parent
+        except UnicodeDecodeError as error:
+            raise SceneError(
+                "", f"{path} is not a text file (byte {error.start} is not UTF-8)"
+            ) from None
     if isinstance(source, str):
         return source, "<text>", Path.cwd()
     raise TypeError(f"source must be a scene name, a path or TOML text, got {source!r}")

@@ -7,6 +7,7 @@ nobody asked for (a typo must not be silently ignored) and lists the allowed one
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 from collections.abc import Callable
@@ -64,7 +65,7 @@ class Table:
         """The value of ``key`` converted by ``reader``; ``default`` when absent."""
         if not self.has(key):
             if default is _REQUIRED:
-                raise SceneError(self.key_path(key), "is required")
+                self._missing(key)
             return default
         return reader(self.data[key], self.key_path(key))
 
@@ -72,8 +73,17 @@ class Table:
         if not self.has(key):
             if optional:
                 return None
-            raise SceneError(self.key_path(key), "is required")
+            self._missing(key)
         return Table(self.data[key], self.key_path(key))
+
+    def _missing(self, key: str):
+        """A required key is absent: a misspelling of it is the likelier mistake."""
+        for typo in self.data:
+            if typo not in self.allowed and key in close_matches(typo, [key]):
+                raise SceneError(self.key_path(typo), f"unknown key; did you mean {key!r}?")
+        unread = [k for k in self.data if k not in self.allowed]
+        found = f" (this table has {', '.join(map(repr, unread))})" if unread else ""
+        raise SceneError(self.key_path(key), f"is required{found}")
 
     def tables(self, key: str) -> list[Table]:
         """An array of tables (``[[key]]``); empty when absent."""
@@ -91,7 +101,16 @@ class Table:
         unknown = [k for k in self.data if k not in self.allowed]
         if unknown:
             allowed = ", ".join(self.allowed) if self.allowed else "none"
-            raise SceneError(self.key_path(unknown[0]), f"unknown key; allowed here: {allowed}")
+            guess = close_matches(unknown[0], self.allowed)
+            hint = f"did you mean {guess[0]!r}? " if guess else ""
+            raise SceneError(
+                self.key_path(unknown[0]), f"unknown key; {hint}allowed here: {allowed}"
+            )
+
+
+def close_matches(word: str, choices) -> list[str]:
+    """The choices ``word`` is probably a misspelling of, best first."""
+    return difflib.get_close_matches(word, list(choices), n=3, cutoff=0.6)
 
 
 def build(path: str, factory: Callable, *args, **kwargs):
