@@ -2,13 +2,21 @@
 
 from __future__ import annotations
 
+import os
+import re
+import signal
 import subprocess
 import sys
+import time
 
+import imageio_ffmpeg
 import pytest
+from PIL import Image
 
 from motes.cli import main
 from motes.scene import SceneError, load_scene
+
+SMALL = ["--resolution", "64x36", "--quiet"]
 
 
 def run_cli(*args):
@@ -75,3 +83,91 @@ def test_a_closed_pipe_ends_the_listing_quietly():
         listing.stdout.close()
         assert listing.wait(timeout=60) == 0
         assert b"Traceback" not in listing.stderr.read()
+
+
+def _run_until_frames(out, frames: int, signum) -> tuple[int, str]:
+    """Start ``motes run fire -o OUT``, send ``signum`` after ``frames`` frames."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "motes", "run", "fire", "-o", str(out), "--frames", "100000",
+         "--resolution", "64x36"],
+        stderr=subprocess.PIPE, stdout=subprocess.PIPE,
+    )  # fmt: skip
+    seen = b""
+    deadline = time.monotonic() + 300
+    try:
+        while time.monotonic() < deadline:
+            seen += os.read(process.stderr.fileno(), 4096)
+            done = [int(n) for n in re.findall(rb"(\d+)/100000", seen)]
+            if done and done[-1] >= frames:
+                break
+        os.kill(process.pid, signum)
+        _, rest = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:  # pragma: no cover - only when the test fails
+            process.kill()
+            process.communicate()
+    return process.returncode, (seen + rest).decode()
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGTERM"), reason="needs POSIX signals")
+@pytest.mark.parametrize("suffix", [".mp4", ".gif"])
+def test_sigterm_closes_the_output_with_its_frames_and_leaves_nothing_hidden(tmp_path, suffix):
+    out = tmp_path / f"fire{suffix}"
+    status, message = _run_until_frames(out, 5, signal.SIGTERM)
+    assert status == 143, message
+    assert "motes: terminated after" in message
+    written = int(re.search(r"holds (\d+) frames", message).group(1))
+    assert written >= 5
+    if suffix == ".mp4":
+        assert imageio_ffmpeg.count_frames_and_secs(str(out))[0] == written
+    else:
+        with Image.open(out) as gif:
+            assert gif.n_frames >= 2  # Pillow merges identical neighbours; fire frames differ
+    assert [p.name for p in tmp_path.iterdir()] == [out.name]  # no hidden .part file
+
+
+def test_a_frame_folder_with_files_is_refused_unless_overwrite(tmp_path, capsys):
+    folder = tmp_path / "frames"
+    assert run_cli("run", "fire", "-o", folder, "--frames", 3, *SMALL) == 0
+    assert len(list(folder.glob("frame_*.png"))) == 3
+    (folder / "notes.txt").write_text("mine")
+    assert run_cli("run", "fire", "-o", folder, "--frames", 2, *SMALL) == 2
+    error = one_error_line(capsys)
+    assert "is not empty" in error and "--overwrite" in error
+    assert run_cli("run", "fire", "-o", folder, "--frames", 2, "--overwrite", *SMALL) == 0
+    # Only this run's two frames remain, and the user's own file is untouched.
+    assert sorted(p.name for p in folder.iterdir()) == [
+        "frame_00000.png",
+        "frame_00001.png",
+        "frames.json",
+        "notes.txt",
+    ]
+
+
+def test_births_dropped_at_capacity_are_reported(tmp_path, capsys):
+    scene = tmp_path / "full.toml"
+    scene.write_text(
+        '[scene]\nduration = 0.2\n[[system]]\nname = "jet"\ncapacity = 50\n'
+        '  [[system.emitter]]\n  rate = { type = "per_second", rate = 100000 }\n'
+    )
+    assert run_cli("run", scene, "--no-render") == 0
+    captured = capsys.readouterr()
+    assert captured.err.count("motes: warning: system 'jet' is full (50 particles)") == 1
+    assert re.search(r"jet: \d+ births dropped at capacity", captured.out)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--export", "cache.txt"], "--export must end in .npz"),
+        (["-o", "locked/out.mp4"], "cannot write to"),
+    ],
+)
+def test_unwritable_outputs_are_refused_before_simulating(args, message, tmp_path, capsys,
+                                                          monkeypatch):  # fmt: skip
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "locked").mkdir(mode=0o500)
+    if os.geteuid() == 0 and "locked" in " ".join(args):
+        pytest.skip("root writes anywhere")
+    assert run_cli("run", "fire", *args, *SMALL) == 2
+    assert message in one_error_line(capsys)

@@ -2,7 +2,7 @@
 
 User mistakes (a bad scene key, a missing file, a bad option) end with exit status 2 and
 one line ``motes: error: ...`` on stderr, without a traceback. Ctrl-C ends with status
-130 after every finished frame has been written and the video closed.
+130, SIGTERM with 143, after every finished frame has been written and the video closed.
 """
 
 from __future__ import annotations
@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import re
+import signal
 import sys
 import time
 from pathlib import Path
@@ -96,6 +98,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     run.add_argument(
         "--no-render", action="store_true", help="simulate (and export) without rendering images"
+    )
+    run.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the frames of an earlier run in a non-empty frame folder",
     )
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
     sub.add_parser("scenes", help="list the built-in scenes")
@@ -189,6 +196,72 @@ def _record(scene) -> dict[str, str]:
     }
 
 
+def _check_writable(path: Path | None) -> None:
+    """Refuse, before simulating, an output whose folder cannot be written."""
+    if path is None:
+        return
+    folder = path if path.suffix == "" and path.is_dir() else path.resolve().parent
+    if folder.is_dir() and not os.access(folder, os.W_OK | os.X_OK):
+        raise UserError(f"cannot write to {folder}: permission denied")
+
+
+def _clear_frames(folder: Path, *, overwrite: bool) -> None:
+    """A frame folder must hold only this run's frames: refuse one with files in it, or,
+    with ``--overwrite``, remove an earlier run's frames (and nothing else)."""
+    from ..io.frames import SEQUENCE_METADATA
+
+    if not folder.is_dir():
+        return
+    present = sorted(folder.iterdir())
+    if not present:
+        return
+    if not overwrite:
+        raise UserError(
+            f"frame folder {folder} is not empty ({len(present)} entries); frames of two "
+            "runs would mix: give --overwrite to replace its frames, or another folder"
+        )
+    for path in present:
+        if path.name == SEQUENCE_METADATA or re.fullmatch(r"frame_\d{5,}\.png", path.name):
+            path.unlink()
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt():
+    """SIGTERM ends a run like Ctrl-C: every output is closed with its finished frames.
+
+    The handler re-raises the signal as SIGINT, so it takes the same path, including
+    the frame writers' deferral of Ctrl-C while a frame is handed over.
+    """
+    state = {"terminated": False}
+
+    def handle(signum, frame):
+        state["terminated"] = True
+        os.kill(os.getpid(), signal.SIGINT)
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handle)
+    except ValueError:  # not the main thread: leave SIGTERM alone
+        yield state
+        return
+    try:
+        yield state
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _warn_dropped(scene, warned: set) -> None:
+    """Warn once per system whose births were dropped at its capacity."""
+    for name, system in scene.systems.items():
+        dropped = system.store.dropped
+        if dropped and name not in warned:
+            warned.add(name)
+            print(
+                f"\nmotes: warning: system {name!r} is full ({system.store.capacity} "
+                f"particles): {dropped} births dropped so far; raise its capacity",
+                file=sys.stderr,
+            )
+
+
 def _run(args) -> int:
     from ..io.cache import CacheWriter
     from ..io.frames import open_writer
@@ -210,14 +283,22 @@ def _run(args) -> int:
         raise UserError(f"output directory does not exist: {output.parent}")
     if args.export and not Path(args.export).resolve().parent.is_dir():
         raise UserError(f"export directory does not exist: {Path(args.export).parent}")
+    if args.export and Path(args.export).suffix.lower() != ".npz":
+        raise UserError(f"--export must end in .npz, got {args.export}")
+    for path in (output, Path(args.export) if args.export else None):
+        _check_writable(path)
+    if output is not None and output.suffix == "":
+        _clear_frames(output, overwrite=args.overwrite)
 
     progress = Progress(frames, label=scene.name, enabled=not args.quiet)
     start = time.perf_counter()
     done = 0
     interrupted = False
+    warned: set[str] = set()
     # An ExitStack closes every output even when closing another one fails (a second
     # Ctrl-C, an ffmpeg error): each keeps the frames finished so far.
     with contextlib.ExitStack() as outputs:
+        signals = outputs.enter_context(_terminate_as_interrupt())
         writer = (
             outputs.enter_context(open_writer(output, fps=scene.fps, metadata=_record(scene)))
             if output
@@ -240,6 +321,7 @@ def _run(args) -> int:
                     cache.add_frame(scene.time, scene.states())
                 done += 1
                 progress.update(done)
+                _warn_dropped(scene, warned)
         except KeyboardInterrupt:
             interrupted = True
     if interrupted:
@@ -247,8 +329,9 @@ def _run(args) -> int:
         # here: the writer's own count is what the file holds.
         held = writer.frames_written if writer is not None else 0
         kept = f"; {output} holds {held} frame{'s' * (held != 1)}" if held else ""
-        print(f"motes: interrupted after {done} frames{kept}", file=sys.stderr)
-        return 130
+        how = "terminated" if signals["terminated"] else "interrupted"
+        print(f"motes: {how} after {done} frames{kept}", file=sys.stderr)
+        return 143 if signals["terminated"] else 130
     if not args.quiet:
         elapsed = time.perf_counter() - start
         counts = ", ".join(f"{k} {v}" for k, v in scene.counts().items())
@@ -256,4 +339,7 @@ def _run(args) -> int:
         print(f"{done} frames in {elapsed:.1f} s ({done / elapsed:.1f} fps); particles: {counts}")
         if wrote:
             print(f"wrote {wrote}")
+        for name, system in scene.systems.items():
+            if system.store.dropped:
+                print(f"{name}: {system.store.dropped} births dropped at capacity")
     return 0
