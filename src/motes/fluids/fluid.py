@@ -24,6 +24,9 @@ from . import _kernels
 from .boundaries import MeshWall, pack
 from .model import FluidModel
 
+#: A push-out radius [m] no particle is within: the correction kernel then pushes none.
+_NO_PUSH = -1e30
+
 
 @dataclass
 class FluidState:
@@ -137,6 +140,17 @@ class Fluid:
         #: Mean relative compression ``mean(max(ρ/ρ₀ - 1, 0))`` at the last iteration of
         #: the last step (measured before that iteration's correction).
         self.density_error = 0.0
+        #: :class:`~motes.fluids.reaction.WallReaction` objects told of every step.
+        self.reactions: list = []
+
+    def add_reaction(self, reaction) -> None:
+        """Report, after each step, what the liquid gave to some of its walls (a
+        :class:`~motes.fluids.reaction.WallReaction`): how moving bodies feel it."""
+        from .reaction import WallReaction
+
+        if not isinstance(reaction, WallReaction):
+            raise TypeError(f"reaction must be a WallReaction, got {type(reaction).__name__}")
+        self.reactions.append(reaction)
 
     def __len__(self) -> int:
         return self.state.positions.shape[1]
@@ -211,6 +225,8 @@ class Fluid:
         """Advance by ``dt`` [s], in equal internal steps no longer than ``max_dt``."""
         dt = _validate.positive("dt", dt)
         count = max(1, math.ceil(dt / self.model.max_dt - 1e-9))
+        for reaction in self.reactions:
+            reaction.start()
         with _jit.threads_for(len(self)):
             for _ in range(count):
                 self._step(dt / count)
@@ -222,6 +238,8 @@ class Fluid:
             self.time += dt
             return
         rows = pack(m.boundaries)
+        for reaction in self.reactions:
+            reaction.begin(m.boundaries, rows)
         h, radius = d["h"], 0.5 * m.spacing
         g = np.asarray(m.gravity, np.float32)[:, None]
         s.velocities += np.float32(dt) * g
@@ -233,6 +251,8 @@ class Fluid:
                 "into positions or velocities"
             )
         depth = np.zeros(n, np.float32)
+        for reaction in self.reactions:
+            reaction.pushed(predicted, radius, d["mass"][s.phase])
         _kernels.project(*predicted, rows, radius, depth)
 
         # Sort into the grid's order: neighbours then sit in nearby memory.
@@ -255,10 +275,22 @@ class Fluid:
                 *predicted, offsets, nbr, weight, rows, h, m.spacing, d["wall_scale"],
                 inv_delta0, d["eps"], delta, lam,
             )  # fmt: skip
+            # With reacting walls the push-out runs as its own pass, so that what it
+            # moves can be counted (same result: each particle's push is its own).
+            reacting = bool(self.reactions)
             _kernels.correction(
                 *predicted, offsets, nbr, weight, lam, rows, h, m.spacing, d["wall_scale"],
-                inv_delta0, d["tensile_k"], d["inv_wq"], radius, spare,
+                inv_delta0, d["tensile_k"], d["inv_wq"], _NO_PUSH if reacting else radius,
+                spare,
             )  # fmt: skip
+            if reacting:
+                masses = d["mass"][s.phase]
+                for reaction in self.reactions:
+                    reaction.corrected(
+                        predicted, spare, lam, weight, masses, radius, h, m.spacing,
+                        d["wall_scale"],
+                    )  # fmt: skip
+                _kernels.project(*spare, rows, radius, np.empty(n, np.float32))
             predicted, spare = spare, predicted
             lam_sum += lam
         rho0 = np.float32(m.phases[0].rest_density)
@@ -302,6 +334,8 @@ class Fluid:
         if rows.shape[0]:
             walls = np.array([h, radius, dt, m.phases[0].rest_density * m.spacing])
             _kernels.boundary_velocity(*s.positions, *s.velocities, depth, rows, walls)
+        for reaction in self.reactions:
+            reaction.end(dt)
         self.time += dt
 
     def _collide_meshes(self, meshes, start, dt: float, radius: float) -> None:

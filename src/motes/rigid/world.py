@@ -109,6 +109,7 @@ class World:
         self._detections: list[Detection] = []
         self._bodies: list[dict] = []
         self._velocity_pending: list[tuple[np.ndarray, np.ndarray]] = []
+        self._velocity_added: list[tuple[np.ndarray, np.ndarray]] = []
         self._spheres: dict[int, float] = {}  # sphere particle -> restitution
         self._built = None
         self.time = 0.0
@@ -332,6 +333,17 @@ class World:
             raise ValueError("velocity must be finite")
         self._velocity_pending.append((idx, v.copy()))
 
+    def add_velocity(self, indices, change) -> None:
+        """Add ``change`` [m/s] ((k, 3)) to the velocities of particles ``indices`` at
+        the next step: an impulse from another kind (a liquid) divided by the mass."""
+        idx = np.atleast_1d(np.asarray(indices, dtype=np.int64))
+        if idx.size and (idx.min() < 0 or idx.max() >= self.count):
+            raise ValueError(f"indices must be in [0, {self.count - 1}]")
+        dv = np.broadcast_to(np.asarray(change, dtype=np.float64), (len(idx), 3))
+        if not np.all(np.isfinite(dv)):
+            raise ValueError("change must be finite")
+        self._velocity_added.append((idx, dv.copy()))
+
     # --- state -----------------------------------------------------------------------
 
     @property
@@ -547,6 +559,10 @@ class World:
         for idx, v in self._velocity_pending:
             q[:, idx] = x[:, idx] - v.T * h
         self._velocity_pending.clear()
+        # Position Verlet carries velocity as x - x*: a change dv moves x* by -dv h.
+        for idx, dv in self._velocity_added:
+            np.subtract.at(q, (slice(None), idx), dv.T * h)
+        self._velocity_added.clear()
         inv_mass, table, hits = s["inv_mass"], s["table"], s["hits"]
         tri, cell_start, cell_tris = s["mesh"]
         g = self.gravity

@@ -1,0 +1,95 @@
+"""Liquids and rigid bodies acting on each other: boxes that float, sink and displace.
+
+Each coupled body of a rigid :class:`~motes.rigid.World` (a box made of particles) is
+also a solid wall of a :class:`~motes.fluids.Fluid`: a box boundary that follows the
+body's transform. One step of the pair:
+
+1. the walls take the bodies' current centres (and, for oriented walls, rotations);
+2. the liquid steps; its walls push it (the push-out and the walls' part of every
+   density correction), and :class:`~motes.fluids.reaction.WallReaction` sums, per wall,
+   the opposite of what each push gave the liquid: the impulse ``J`` [N s] and angular
+   impulse ``L`` [N m s] about the centre that the liquid gave the body in that step;
+3. each body's particles get the velocity change of that impulse, as a rigid body:
+   ``Δv_p = J / M + (I⁻¹ L) × r_p`` with ``M`` and ``I`` the mass and inertia tensor of
+   its particles about the centre, ``r_p`` a particle's offset from it;
+4. the world steps (gravity, constraints, its own colliders).
+
+Whatever the liquid gains from a wall the body loses, so liquid and bodies together
+change momentum only through gravity and the fixed walls. Buoyancy is not put in: it is
+the net of the pressure the density solve builds under a body, so a body lighter than
+the liquid rises until the displaced liquid weighs what it does, and a denser one sinks.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..fluids.boundaries import Box as BoxWall
+from ..fluids.reaction import WallReaction
+
+
+class FloatingBodies:
+    """Box bodies of a rigid world coupled both ways with a liquid.
+
+    Parameters
+    ----------
+    fluid : Fluid
+        The liquid. The walls of the bodies are added to its model (a new
+        :class:`~motes.fluids.FluidModel` with the extra boundaries).
+    world : motes.rigid.World
+        The rigid world holding the bodies (give it the liquid's container as colliders
+        too, so that a sinking body comes to rest on the floor).
+    bodies : sequence of (Body, size)
+        Each body, as ``World.add_body`` returned it, with the full edge lengths (3,) [m]
+        of the box the liquid sees (the body's box shape).
+    """
+
+    def __init__(self, fluid, world, bodies):
+        self.fluid = fluid
+        self.world = world
+        self.bodies = [body for body, _ in bodies]
+        sizes = [np.asarray(size, dtype=np.float64) for _, size in bodies]
+        for size in sizes:
+            if size.shape != (3,) or np.any(size <= 0):
+                raise ValueError(f"size must be three lengths > 0 [m], got {size.tolist()}")
+        if not self.bodies:
+            raise ValueError("bodies must name at least one body")
+        centers, _ = world.transforms()
+        self.walls = [
+            BoxWall(centers[body.index], size / 2)
+            for body, size in zip(self.bodies, sizes, strict=True)
+        ]
+        fluid.model = dataclasses.replace(
+            fluid.model, boundaries=(*fluid.model.boundaries, *self.walls)
+        )
+        self.reaction = WallReaction(self.walls)
+        fluid.add_reaction(self.reaction)
+        #: Force [N] the liquid exerted on each body over the last step, (k, 3).
+        self.force = np.zeros((len(self.bodies), 3))
+
+    def _follow(self) -> np.ndarray:
+        centers, _ = self.world.transforms()
+        for wall, body in zip(self.walls, self.bodies, strict=True):
+            wall.center = centers[body.index].copy()
+        return centers
+
+    def step(self, dt: float) -> None:
+        """Advance liquid and bodies by ``dt`` [s], exchanging the liquid's push."""
+        centers = self._follow()
+        self.fluid.step(dt)
+        impulse, angular = self.reaction.impulse, self.reaction.angular_impulse
+        self.force = impulse / dt
+        x = self.world._position
+        for k, body in enumerate(self.bodies):
+            idx = body.particles
+            mass = self.world.mass[idx]
+            offset = x[:, idx] - centers[body.index][:, None]
+            inertia = (mass * (offset * offset).sum(axis=0)).sum() * np.eye(3) - (
+                mass * offset
+            ) @ offset.T
+            spin = np.linalg.solve(inertia, angular[k])
+            change = impulse[k] / mass.sum() + np.cross(spin, offset.T)
+            self.world.add_velocity(idx, change)
+        self.world.step(dt)
