@@ -183,6 +183,19 @@ class ParticleState:
         """SI unit of attribute ``name`` (``"1"`` dimensionless, ``""`` not a quantity)."""
         return self.field(name).unit
 
+    # -- what forces read ---------------------------------------------------------------
+    # Forces take "a store" for attributes other than position and velocity (the mass);
+    # these two methods are the part of ParticleStore's interface they use, so any
+    # kind's state can stand in for a store (motes.forces.apply).
+    def has(self, name: str) -> bool:
+        """Whether attribute ``name`` exists (as ``ParticleStore.has``)."""
+        return name in self
+
+    def raw(self, name: str) -> np.ndarray:
+        """Values of attribute ``name``, ``(components, n)`` or ``(n,)`` (as
+        ``ParticleStore.raw``, without spare capacity: the state holds exactly ``n``)."""
+        return self[name]
+
     # -- derived states ---------------------------------------------------------------
     def take(self, index) -> ParticleState:
         """The particles chosen by ``index`` (a bool mask or int indices): copies."""

@@ -2,7 +2,8 @@
 
 One step (``Cloth.step``):
 
-1. explicit forces: gravity and the wind's per-triangle drag and lift;
+1. explicit forces: gravity, the wind's per-triangle drag and lift, and added forces
+   (:meth:`Cloth.add_force`; those with a Jacobian go to the implicit solve);
 2. the integrator: implicit Euler (Baraff & Witkin 1998) with the springs and the air
    damping implicit, pins and moving handles as constraint filters, or an explicit
    scheme for comparison;
@@ -27,6 +28,7 @@ from ..collide.colliders import Collider, pack
 from ..collide.contact import project_contacts
 from ..collide.mesh import TriangleMeshCollider
 from ..collide.swept import sweep_contacts
+from ..forces.apply import add_forces, check_force, force_state, split_implicit
 from ..forces.springs import Springs
 from ..integrate.implicit import SERIAL_BELOW, ConstraintFilter, ImplicitEuler, SolveReport
 from ..state import Field, ParticleState
@@ -110,6 +112,9 @@ class Cloth:
         Solver settings for the implicit scheme; default tolerance 1e-2 (a 1 m, 64×64
         cloth then ends a 1 s fall within 1.2 mm of a 1e-6 solve, with 54 iterations per
         step against 80 at 1e-3 and 194 at 1e-6).
+    forces : sequence of Force or FieldForce
+        More forces on the vertices (radial fields, vortices, curl noise, callbacks,
+        drag...), evaluated at the cloth's state every step; see :meth:`add_force`.
     """
 
     def __init__(
@@ -131,6 +136,7 @@ class Cloth:
         strain_iterations: int = 50,
         scheme: Scheme | str = Scheme.IMPLICIT_EULER,
         solver: ImplicitEuler | None = None,
+        forces=(),
     ):
         vertices = check.points("vertices", vertices)
         faces = np.asarray(faces)
@@ -203,6 +209,8 @@ class Cloth:
             allowed = ", ".join(repr(s.value) for s in Scheme)
             raise ValueError(f"scheme must be one of {allowed}, got {scheme!r}") from None
         self.solver = solver if solver is not None else ImplicitEuler(tolerance=1e-2)
+        #: Forces added to springs, gravity and wind (:meth:`add_force`).
+        self.forces = [check_force(f) for f in forces]
 
         #: Positions [m] and velocities [m/s], float64 (3, n): the implicit solve's precision.
         self.position = np.ascontiguousarray(vertices.T)
@@ -326,14 +334,27 @@ class Cloth:
             gather_triangles_kernel(self._tri_force, self._tri_first, self._tris, *f)
         return f
 
+    def add_force(self, force):
+        """Make ``force`` (a :class:`~motes.forces.Force` or ``FieldForce``) act on the
+        vertices from the next step on; returns it.
+
+        With the implicit scheme, field forces are explicit except their linear drag
+        (implicit, like ``air_damping``), and forces with a Jacobian (radial fields,
+        springs) are implicit; vortices, curl noise and callbacks are explicit
+        (:func:`motes.forces.apply.split_implicit`).
+        """
+        self.forces.append(check_force(force))
+        return force
+
     def force(self) -> np.ndarray:
-        """Total force on each particle [N], (3, n): springs, gravity, wind, air damping.
+        """Total force on each particle [N], (3, n): springs, gravity, wind, air damping
+        and :attr:`forces`.
 
         Pins and handles excluded (their reaction is whatever balances this).
         """
         f = self.external_force() - self.air_damping * self.mass * self.velocity
         self.springs.accumulate(None, self.position, self.velocity, self.time, f)
-        return f
+        return add_forces(self.forces, self.position, self.velocity, self.mass, self.time, f)
 
     def energy(self) -> float:
         """Kinetic + spring + gravitational potential energy [J]."""
@@ -355,18 +376,21 @@ class Cloth:
         external = self.external_force()
         start = self.position.copy() if self._meshes else None
         if self.scheme == Scheme.IMPLICIT_EULER:
+            others, drag = split_implicit(self.forces, self.velocity, self.mass, external)
             self.last_report = self.solver.step(
                 self.position,
                 self.velocity,
                 self.mass,
                 h,
-                forces=[self.springs],
+                forces=[self.springs, *others],
                 external=external,
-                damping=self.air_damping * self.mass,
+                damping=self.air_damping * self.mass + drag,
                 constraints=self.constraints,
+                store=force_state(self.position, self.velocity, self.mass),
                 time=self.time,
             )
         else:
+            add_forces(self.forces, self.position, self.velocity, self.mass, self.time, external)
             self._explicit(h, external)
         free = ~self.pinned
         if self.strain_limit is not None:

@@ -18,6 +18,8 @@ from .. import _jit, _validate
 from ..collide.contact import Detection, project_contacts
 from ..collide.contact import pack as pack_colliders
 from ..collide.swept import sweep_contacts
+from ..forces.apply import add_forces, check_force
+from ..forces.base import Force
 from ..spatial import UniformGrid
 from ..state import Field, ParticleState
 from . import _kernels
@@ -97,6 +99,9 @@ class Fluid:
         Initial velocities [m/s]; zero by default.
     phase : array of int, shape (n,), optional
         Phase of each particle; 0 by default.
+    forces : sequence of Force or FieldForce
+        Forces besides the model's gravity (curl noise, vortices, radial fields,
+        callbacks, drag...), evaluated every step; see :meth:`add_force`.
 
     Examples
     --------
@@ -108,7 +113,7 @@ class Fluid:
     125
     """
 
-    def __init__(self, model: FluidModel, positions, *, velocities=None, phase=None):
+    def __init__(self, model: FluidModel, positions, *, velocities=None, phase=None, forces=()):
         if not isinstance(model, FluidModel):
             raise TypeError(f"model must be a FluidModel, got {type(model).__name__}")
         self.model = model
@@ -137,6 +142,10 @@ class Fluid:
         d = model.derived
         self._grid = UniformGrid(d["h"], capacity=96)
         self.time = 0.0
+        #: Forces besides gravity (:meth:`add_force`).
+        self.forces = []
+        for force in forces:
+            self.add_force(force)
         #: Mean relative compression ``mean(max(ρ/ρ₀ - 1, 0))`` at the last iteration of
         #: the last step (measured before that iteration's correction).
         self.density_error = 0.0
@@ -221,6 +230,32 @@ class Fluid:
         return (self.state.velocities.astype(np.float64) * self.masses).sum(axis=1)
 
     # -- stepping ----------------------------------------------------------------------
+    def add_force(self, force):
+        """Make ``force`` (a :class:`~motes.forces.Force` or ``FieldForce``) act from the
+        next step on; returns it.
+
+        Each (internal) step evaluates the forces at the start-of-step state and adds
+        ``dt F / m`` to the velocities with gravity, before positions are predicted, so
+        the density constraints and walls then act on the pushed liquid. Forces that hold
+        particle indices (springs) are refused: the solver reorders its particles every
+        step.
+        """
+        check_force(force)
+        # Forces holding particle indices are the ones that override ``remap``.
+        if isinstance(force, Force) and type(force).remap is not Force.remap:
+            raise TypeError(
+                f"{type(force).__name__} joins particles by index, and a fluid reorders "
+                "its particles every step"
+            )
+        self.forces.append(force)
+        return force
+
+    def _force_acceleration(self) -> np.ndarray:
+        """Acceleration [m/s²] of :attr:`forces`, float32 (3, n), at the current state."""
+        s, masses = self.state, self.masses
+        force = add_forces(self.forces, s.positions, s.velocities, masses, self.time)
+        return (force / masses).astype(np.float32)
+
     def step(self, dt: float) -> None:
         """Advance by ``dt`` [s], in equal internal steps no longer than ``max_dt``."""
         dt = _validate.positive("dt", dt)
@@ -242,6 +277,8 @@ class Fluid:
             reaction.begin(m.boundaries, rows)
         h, radius = d["h"], 0.5 * m.spacing
         g = np.asarray(m.gravity, np.float32)[:, None]
+        if self.forces:
+            g = g + self._force_acceleration()
         s.velocities += np.float32(dt) * g
         predicted = s.positions + np.float32(dt) * s.velocities
         if not np.isfinite(predicted).all():

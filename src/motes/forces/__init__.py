@@ -1,5 +1,10 @@
-"""Forces and fields: gravity, drag, wind, radial fields, vortices, curl noise, springs."""
+"""Forces and fields: gravity, drag, wind, radial fields, vortices, curl noise, springs.
 
+Every force acts on any kind: systems take them with ``add``, cloth, hair, liquids and
+rigid worlds with ``add_force`` (evaluated by :func:`add_forces`).
+"""
+
+from .apply import add_forces
 from .base import FieldForce, FieldTerms, Force, ForceJacobian
 from .callback import CallbackForce
 from .curl_noise import CurlNoise
@@ -22,4 +27,5 @@ __all__ = [
     "Springs",
     "Vortex",
     "Wind",
+    "add_forces",
 ]

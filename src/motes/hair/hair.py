@@ -24,6 +24,7 @@ from ..cloth.drivers import Keyframes
 from ..cloth.kernels import collide_kernel
 from ..cloth.strain import StrainLimiter
 from ..collide.colliders import Collider, Sphere, pack
+from ..forces.apply import check_force, force_state, split_implicit
 from ..integrate.implicit import SERIAL_BELOW, ConstraintFilter, ImplicitEuler, SolveReport
 from ..state import Field, ParticleState
 from .bending import StencilSprings, angle_bending
@@ -170,6 +171,8 @@ class Hair:
     solver : ImplicitEuler, optional
     seed : int
         For the default root directions.
+    forces : sequence of Force or FieldForce
+        More forces on the particles, evaluated every step; see :meth:`add_force`.
     """
 
     def __init__(
@@ -193,6 +196,7 @@ class Hair:
         colliders=(),
         solver: ImplicitEuler | None = None,
         seed: int = 0,
+        forces=(),
     ):
         if not isinstance(head, Head):
             raise TypeError(f"head must be a Head, got {head!r}")
@@ -231,6 +235,8 @@ class Hair:
             if not isinstance(c, Collider):
                 raise TypeError(f"colliders must hold Collider objects, got {c!r}")
         self.solver = solver if solver is not None else ImplicitEuler()
+        #: Forces added to the springs and gravity (:meth:`add_force`).
+        self.forces = [check_force(f) for f in forces]
 
         # Rest shape: straight from the root along the growth direction, head's frame.
         variation = check.real(
@@ -274,6 +280,19 @@ class Hair:
         self.velocity = np.zeros((3, self.n))
         self.last_report: SolveReport | None = None
 
+    def add_force(self, force):
+        """Make ``force`` (a :class:`~motes.forces.Force` or ``FieldForce``) act on the
+        particles from the next step on; returns it.
+
+        Field forces are explicit except their linear drag (implicit, like
+        ``air_damping``); forces with a Jacobian (radial fields, springs) are implicit,
+        vortices, curl noise and callbacks explicit
+        (:func:`motes.forces.apply.split_implicit`). The follicles are held: forces on
+        them go into the constraints' reaction.
+        """
+        self.forces.append(check_force(force))
+        return force
+
     def step(self, dt: float) -> None:
         """Advance by ``dt`` seconds."""
         h = check.positive("dt", dt)
@@ -285,15 +304,17 @@ class Hair:
         target = (self._root_local @ r.T + c).T
         self.constraints.velocity[:, self._roots] = (target - self.position[:, self._roots]) / h
         external = self.mass[None, :] * self.gravity[:, None]
+        others, drag = split_implicit(self.forces, self.velocity, self.mass, external)
         self.last_report = self.solver.step(
             self.position,
             self.velocity,
             self.mass,
             h,
-            forces=[self.springs],
+            forces=[self.springs, *others],
             external=external,
-            damping=self.air_damping * self.mass,
+            damping=self.air_damping * self.mass + drag,
             constraints=self.constraints,
+            store=force_state(self.position, self.velocity, self.mass),
             time=self.time,
         )
         if self._limiter is not None:

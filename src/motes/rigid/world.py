@@ -2,7 +2,8 @@
 
 Each substep of ``h`` (Jakobsen 2001, "Advanced Character Physics", §2–4):
 
-1. position Verlet, ``x' = x + e^{-c h}(x - x*) + h² g`` (:func:`.kernels.verlet`);
+1. position Verlet, ``x' = x + e^{-c h}(x - x*) + h² (g + F/m)`` (:func:`.kernels.verlet`,
+   then the added forces' ``h² F/m``, :meth:`World.add_force`);
 2. swept tests of every path ``x* -> x'`` against a-priori colliders
    (:mod:`motes.collide.swept`);
 3. the transforms of the solid bodies (for body contacts);
@@ -36,6 +37,7 @@ from ..collide.restitution import restitute_contacts
 from ..collide.spheres import project_spheres, restitute_spheres
 from ..collide.swept import sweep_contacts
 from ..constrain import ConstraintBuilder, Pins
+from ..forces.apply import add_forces, check_force
 from ..state import Field, ParticleState
 from .kernels import verlet
 from .shapes import BodyShape
@@ -88,6 +90,7 @@ class World:
         sqrt_approximation: bool = False,
         body_friction: float = 0.5,
         projection: str = "shake",
+        forces=(),
     ):
         self.gravity = check.vector("gravity", gravity)
         self.damping = check.non_negative("damping", damping)
@@ -114,6 +117,8 @@ class World:
         self._built = None
         self.time = 0.0
         self._h = None
+        #: Forces besides gravity (:meth:`add_force`).
+        self.forces = [check_force(f) for f in forces]
 
     # --- building --------------------------------------------------------------------
 
@@ -305,6 +310,18 @@ class World:
         self._detections.append(check_collider(collider, detection))
         self._colliders.append(collider)
         self._built = None
+
+    def add_force(self, force):
+        """Make ``force`` (a :class:`~motes.forces.Force` or ``FieldForce``) act on every
+        particle from the next substep on; returns it.
+
+        Each substep evaluates the forces at its start (velocity ``(x - x*)/h``) and adds
+        ``h² F / m`` to the Verlet move, with gravity: an acceleration in
+        ``x' = x + e^{-c h}(x - x*) + h² (g + F/m)``. Pinned and static particles do not
+        move.
+        """
+        self.forces.append(check_force(force))
+        return force
 
     def add_sphere_contacts(self, indices, restitution: float = 0.0) -> None:
         """Let particles collide with each other as spheres of their radius.
@@ -554,6 +571,14 @@ class World:
                 s["sphere_restitution"], rest,
             )  # fmt: skip
 
+    def _force_move(self, h: float, inv_mass: np.ndarray) -> np.ndarray:
+        """``h² F / m`` [m], (3, n), of :attr:`forces` at the start of the substep (taken
+        before the Verlet kernel overwrites the previous positions)."""
+        x = self._position
+        velocity = (x - self._previous) / h
+        force = add_forces(self.forces, x, velocity, self.mass, self.time)
+        return (h * h) * inv_mass * force
+
     def _substep(self, s, h) -> None:
         x, q = self._position, self._previous
         for idx, v in self._velocity_pending:
@@ -566,7 +591,10 @@ class World:
         inv_mass, table, hits = s["inv_mass"], s["table"], s["hits"]
         tri, cell_start, cell_tris = s["mesh"]
         g = self.gravity
+        push = self._force_move(h, inv_mass) if self.forces else None
         verlet(*x, *q, inv_mass, g[0], g[1], g[2], math.exp(-self.damping * h), h * h)
+        if push is not None:
+            x += push
         if s["swept"]:
             sweep_contacts(*x, *q, self.radius, inv_mass, table, tri, cell_start, cell_tris, hits)
         if s["bounce"]:

@@ -18,7 +18,7 @@ from ..integrate.implicit import ImplicitEuler
 from ..render import geometry
 from ..render.shading import Material
 from .bodies import Body, BuildContext, register
-from .parts import MESH_SUFFIXES, euler_rotation, is_mesh_collider
+from .parts import MESH_SUFFIXES, body_forces, euler_rotation, is_mesh_collider
 from .schema import (
     SceneError,
     Table,
@@ -175,6 +175,7 @@ def build_cloth(table: Table, context: BuildContext) -> ClothBody:
             "implicit_euler",
         ),
         "solver": _solver(table, 1e-2),
+        "forces": body_forces(table),
     }
     wind_table = table.table("wind", optional=True)
     if wind_table is not None:
@@ -321,6 +322,7 @@ def build_hair(table: Table, context: BuildContext) -> HairBody:
         colliders=_hair_colliders(table, context),
         solver=_solver(table, 1e-2),
         seed=context.seed % (2**32),
+        forces=body_forces(table),
     )
     return HairBody(
         hair,

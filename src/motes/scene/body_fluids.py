@@ -20,7 +20,7 @@ from ..render.shading import Material
 from ..render.sprites import SpriteStyle
 from ..state import Field
 from .bodies import Body, BuildContext, register
-from .parts import placed_mesh
+from .parts import body_forces, placed_mesh
 from .schema import (
     SceneError,
     Table,
@@ -311,12 +311,13 @@ def build_fluid(table: Table, context: BuildContext) -> FluidBody:
         )  # fmt: skip
         item.finish()
     limit = table.get("max_particles", integer(1), 20_000)
+    forces = body_forces(table)
     if positions:
         pos = np.concatenate(positions, axis=1)
         fluid = fluids.Fluid(model, pos, velocities=np.concatenate(velocities, axis=1),
-                             phase=np.concatenate(phase))  # fmt: skip
+                             phase=np.concatenate(phase), forces=forces)  # fmt: skip
     else:
-        fluid = fluids.Fluid(model, np.zeros((3, 0)))
+        fluid = fluids.Fluid(model, np.zeros((3, 0)), forces=forces)
     if len(fluid) > limit:
         raise SceneError(table.key_path("max_particles"),
                          f"the blocks hold {len(fluid)} particles, more than {limit}")  # fmt: skip

@@ -8,8 +8,8 @@ every particle of the world.
 
 Keys every type reads: ``iterations`` (relaxation iterations, default 10), ``substeps``
 (world substeps per scene step, default 1), ``projection`` (``"shake"`` or
-``"jakobsen"``), ``damping`` [1/s], ``gravity`` and ``detection`` (``"posteriori"`` or
-``"priori"``: how the shared colliders are found).
+``"jakobsen"``), ``damping`` [1/s], ``gravity``, ``detection`` (``"posteriori"`` or
+``"priori"``: how the shared colliders are found) and ``[[body.force]]`` tables.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from .. import rigid
 from ..collide import Box as BoxCollider
 from ..render import geometry
 from .bodies import Body, BuildContext, register
+from .parts import body_forces
 from .schema import Table, boolean, build, color, integer, number, one_of, positive, vector
 
 _BOX_COLORS = ((0.75, 0.45, 0.25), (0.3, 0.5, 0.75), (0.75, 0.7, 0.3), (0.45, 0.65, 0.4))
@@ -110,6 +111,7 @@ def read_world(table: Table, context: BuildContext) -> rigid.World:
         iterations=table.get("iterations", integer(1, 200), 10),
         substeps=table.get("substeps", integer(1, 1000), 1),
         projection=table.get("projection", one_of("shake", "jakobsen"), "shake"),
+        forces=body_forces(table),
     )
     detection = table.get("detection", one_of("posteriori", "priori"), "posteriori")
     for collider in context.colliders:

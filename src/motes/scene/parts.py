@@ -300,6 +300,11 @@ def force(table: Table):
     return _variant(table, _FORCES, "force")
 
 
+def body_forces(table: Table) -> list:
+    """The forces of a body's ``[[body.force]]`` tables, read as ``[[system.force]]``."""
+    return [force(t) for t in table.tables("force")]
+
+
 # --- colliders ----------------------------------------------------------------------------
 
 
