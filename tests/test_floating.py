@@ -75,3 +75,29 @@ def test_a_floating_box_rests_at_the_archimedes_depth(ratio):
     level = surface(pair.fluid, 0.02, center, 0.18)
     submerged = level - (center[1] - SIZE / 2)
     assert abs(submerged - ratio * SIZE) < 0.05 * SIZE
+
+
+@pytest.mark.slow
+def test_the_floating_scene_rides_high_low_and_sinks():
+    from motes.scene import load_scene
+
+    scene = load_scene("floating")
+    for _ in range(60):
+        scene.advance()
+    floating = scene.bodies["tank"].floating
+    centers, _ = floating.world.transforms()
+    sizes = [np.asarray(size) for size, _ in floating.looks]
+    bottoms = [c[1] - s[1] / 2 for c, s in zip(centers, sizes, strict=True)]
+    tops = [c[1] + s[1] / 2 for c, s in zip(centers, sizes, strict=True)]
+    level = surface(scene.bodies["tank"].fluid, 0.025, centers[2], 0.2)
+    pine, oak, _ = (level - b for b in bottoms)  # depth under the surface [m]
+    assert 0 < pine < oak  # the light plank rides higher than the heavier block
+    assert pine / 0.1 < oak / 0.12  # ... also as a fraction of its own height
+    assert bottoms[2] < 0.01 and tops[2] > level  # the stone stands on the floor
+    assert level > 0.3  # the water rose by what the three displace
+
+
+def test_a_body_thinner_than_two_kernel_supports_is_refused():
+    pair = tank_with_box(0.5, spacing=0.04, width=0.48)
+    with pytest.raises(ValueError, match=r"size of body 0 must be at least two kernel"):
+        FloatingBodies(pair.fluid, pair.world, [(pair.bodies[0], (0.2, 0.1, 0.2))])

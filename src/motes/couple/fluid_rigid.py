@@ -11,7 +11,10 @@ body's transform. One step of the pair:
    impulse ``L`` [N m s] about the centre that the liquid gave the body in that step;
 3. each body's particles get the velocity change of that impulse, as a rigid body:
    ``Δv_p = J / M + (I⁻¹ L) × r_p`` with ``M`` and ``I`` the mass and inertia tensor of
-   its particles about the centre, ``r_p`` a particle's offset from it;
+   its particles about the centre, ``r_p`` a particle's offset from it (the angular
+   part only with ``turn=True``: the liquid's walls are upright boxes, so a liquid that
+   turned a body could not turn it back, the shift of buoyancy that rights a tilted
+   plank being invisible to it);
 4. the world steps (gravity, constraints, its own colliders).
 
 Whatever the liquid gains from a wall the body loses, so liquid and bodies together
@@ -44,9 +47,13 @@ class FloatingBodies:
     bodies : sequence of (Body, size)
         Each body, as ``World.add_body`` returned it, with the full edge lengths (3,) [m]
         of the box the liquid sees (the body's box shape).
+    turn : bool
+        Also apply the liquid's torque (see the module docstring); by default bodies
+        keep their orientation against the liquid.
     """
 
-    def __init__(self, fluid, world, bodies):
+    def __init__(self, fluid, world, bodies, *, turn: bool = False):
+        self.turn = bool(turn)
         self.fluid = fluid
         self.world = world
         self.bodies = [body for body, _ in bodies]
@@ -56,6 +63,15 @@ class FloatingBodies:
                 raise ValueError(f"size must be three lengths > 0 [m], got {size.tolist()}")
         if not self.bodies:
             raise ValueError("bodies must name at least one body")
+        # Thinner than two kernel supports, a body lets the liquid's particles in between
+        # its walls, whose push-out then flings it (seen: a plank 3.3 spacings thick).
+        thinnest = 2.0 * fluid.model.h
+        for k, size in enumerate(sizes):
+            if size.min() < thinnest * (1 - 1e-9):
+                raise ValueError(
+                    f"size of body {k} must be at least two kernel supports of the liquid "
+                    f"(2 h = {thinnest:g} m) along every edge, got {size.tolist()}"
+                )
         centers, _ = world.transforms()
         self.walls = [
             BoxWall(centers[body.index], size / 2)
@@ -89,7 +105,8 @@ class FloatingBodies:
             inertia = (mass * (offset * offset).sum(axis=0)).sum() * np.eye(3) - (
                 mass * offset
             ) @ offset.T
-            spin = np.linalg.solve(inertia, angular[k])
-            change = impulse[k] / mass.sum() + np.cross(spin, offset.T)
+            change = np.broadcast_to(impulse[k] / mass.sum(), (len(idx), 3))
+            if self.turn:
+                change = change + np.cross(np.linalg.solve(inertia, angular[k]), offset.T)
             self.world.add_velocity(idx, change)
         self.world.step(dt)

@@ -96,8 +96,10 @@ class _Shake:
 class FluidBody(Body):
     """A liquid in a scene: steps the fluid, its nozzles and shaken tanks; draws it."""
 
-    def __init__(self, fluid, *, colors, nozzles, shakes, walls, look, limit):
+    def __init__(self, fluid, *, colors, nozzles, shakes, walls, look, limit, floating=None):
         self.fluid = fluid
+        #: Boxes floating in (or sunk through) the liquid, or None.
+        self.floating = floating
         self.colors = np.asarray(colors, np.float32)
         self.nozzles, self.shakes, self.walls = nozzles, shakes, walls
         self.look = look
@@ -114,7 +116,10 @@ class FluidBody(Body):
             shake.move(self.fluid.time + dt)
         for nozzle in self.nozzles:
             nozzle.emit(self.fluid, dt, self.limit)
-        self.fluid.step(dt)
+        if self.floating is not None:
+            self.floating.step(dt)  # the liquid and its boxes, each pushing the other
+        else:
+            self.fluid.step(dt)
 
     def count(self) -> int:
         return len(self.fluid)
@@ -148,6 +153,8 @@ class FluidBody(Body):
 
     def drawables(self) -> list:
         items = list(self.walls)
+        if self.floating is not None:
+            items.extend(self.floating.boxes())
         if self.metaballs is None or len(self.fluid) == 0:
             return items
         s = self.fluid.state
@@ -322,8 +329,66 @@ def build_fluid(table: Table, context: BuildContext) -> FluidBody:
         raise SceneError(table.key_path("max_particles"),
                          f"the blocks hold {len(fluid)} particles, more than {limit}")  # fmt: skip
     look = _look(table.table("render", optional=True), spacing)
+    floats = table.tables("float")
+    floating = _Floating(fluid, walls, floats) if floats else None
     return FluidBody(fluid, colors=colors, nozzles=nozzles, shakes=shakes,
-                     walls=_WallList(drawn), look=look, limit=limit)  # fmt: skip
+                     walls=_WallList(drawn), look=look, limit=limit,
+                     floating=floating)  # fmt: skip
+
+
+class _Floating:
+    """``[[body.float]]`` boxes: a rigid world of their own, coupled with the liquid both
+    ways (:class:`~motes.couple.fluid_rigid.FloatingBodies`); the liquid's tanks and
+    planes are its colliders."""
+
+    def __init__(self, fluid, walls, tables):
+        from ..collide.colliders import Plane
+        from ..couple.fluid_rigid import FloatingBodies
+        from ..rigid import World
+        from ..rigid.shapes import BodyShape
+
+        self.world = World(gravity=fluid.model.gravity, substeps=4, iterations=4, damping=0.5)
+        for wall in walls:
+            for normal, point in _wall_planes(wall):
+                self.world.add_collider(Plane(normal, point=point, friction=0.3))
+        bodies, self.looks = [], []
+        for item in tables:
+            size = item.get("size", vector(), (0.2, 0.2, 0.2))
+            density = item.get("density", positive())
+            center = item.get("center", vector())
+            shape = build(item.path, BodyShape.box, center, size,
+                          density * float(np.prod(size)))  # fmt: skip
+            bodies.append((self.world.add_body(shape), size))
+            self.looks.append((np.asarray(size), item.get("color", color, (0.6, 0.45, 0.3))))
+            item.finish()
+        self.pair = FloatingBodies(fluid, self.world, bodies)
+
+    def step(self, dt: float) -> None:
+        self.pair.step(dt)
+
+    def boxes(self) -> list:
+        centers, rotations = self.world.transforms()
+        return [
+            geometry.Box(centers[b.index], size, rotation=rotations[b.index], color=tint[:3])
+            for b, (size, tint) in zip(self.pair.bodies, self.looks, strict=True)
+        ]
+
+
+def _wall_planes(wall):
+    """The (normal, point) planes of a tank or plane wall, for a rigid world's colliders."""
+    if isinstance(wall, fluids.Tank):
+        planes = []
+        for axis in range(3):
+            for sign, corner in ((1.0, wall.lower), (-1.0, wall.upper)):
+                if axis == 1 and sign < 0 and not wall.closed:
+                    continue
+                normal = np.zeros(3)
+                normal[axis] = sign
+                planes.append((normal, corner))
+        return planes
+    if isinstance(wall, fluids.Plane):
+        return [(wall.normal, wall.point)]
+    return []
 
 
 class _WallList:
