@@ -85,12 +85,13 @@ def test_a_closed_pipe_ends_the_listing_quietly():
         assert b"Traceback" not in listing.stderr.read()
 
 
-def _run_until_frames(out, frames: int, signum) -> tuple[int, str]:
-    """Start ``motes run fire -o OUT``, send ``signum`` after ``frames`` frames."""
+def _run_until_frames(out, frames: int, signum, *, group: bool) -> tuple[int, str]:
+    """Start ``motes run fire -o OUT``, send ``signum`` after ``frames`` frames: to its
+    process group (as a terminal's Ctrl-C does) or to the process (as ``kill`` does)."""
     process = subprocess.Popen(
         [sys.executable, "-m", "motes", "run", "fire", "-o", str(out), "--frames", "100000",
          "--resolution", "64x36"],
-        stderr=subprocess.PIPE, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, stdout=subprocess.PIPE, start_new_session=group,
     )  # fmt: skip
     seen = b""
     deadline = time.monotonic() + 300
@@ -100,7 +101,7 @@ def _run_until_frames(out, frames: int, signum) -> tuple[int, str]:
             done = [int(n) for n in re.findall(rb"(\d+)/100000", seen)]
             if done and done[-1] >= frames:
                 break
-        os.kill(process.pid, signum)
+        (os.killpg if group else os.kill)(process.pid, signum)
         _, rest = process.communicate(timeout=60)
     finally:
         if process.poll() is None:  # pragma: no cover - only when the test fails
@@ -109,13 +110,23 @@ def _run_until_frames(out, frames: int, signum) -> tuple[int, str]:
     return process.returncode, (seen + rest).decode()
 
 
-@pytest.mark.skipif(not hasattr(signal, "SIGTERM"), reason="needs POSIX signals")
-@pytest.mark.parametrize("suffix", [".mp4", ".gif"])
-def test_sigterm_closes_the_output_with_its_frames_and_leaves_nothing_hidden(tmp_path, suffix):
+@pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
+@pytest.mark.parametrize(
+    ("suffix", "signum", "status", "word"),
+    [
+        (".mp4", signal.SIGINT, 130, "interrupted"),  # Ctrl-C at a terminal
+        (".mp4", signal.SIGTERM, 143, "terminated"),
+        (".gif", signal.SIGTERM, 143, "terminated"),
+    ],
+)
+def test_a_stopped_run_closes_its_output_with_the_frames_so_far(tmp_path, suffix, signum,
+                                                                 status, word):  # fmt: skip
+    """Ctrl-C and SIGTERM alike: the output plays, holds every finished frame, and no
+    hidden temporary file is left."""
     out = tmp_path / f"fire{suffix}"
-    status, message = _run_until_frames(out, 5, signal.SIGTERM)
-    assert status == 143, message
-    assert "motes: terminated after" in message
+    returned, message = _run_until_frames(out, 5, signum, group=signum == signal.SIGINT)
+    assert returned == status, message
+    assert f"motes: {word} after" in message
     written = int(re.search(r"holds (\d+) frames", message).group(1))
     assert written >= 5
     if suffix == ".mp4":
