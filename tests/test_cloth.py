@@ -22,7 +22,7 @@ def test_grid_topology_counts_and_mass():
     assert len(top.structural) == ny * (nx - 1) + nx * (ny - 1)
     assert len(top.shear) == 2 * (nx - 1) * (ny - 1)
     assert len(top.bending) == ny * (nx - 2) + nx * (ny - 2)
-    mesh = mo.render.mesh.TriangleMesh(top.vertices, top.faces)
+    mesh = mo.TriangleMesh(top.vertices, top.faces)
     # Every triangle faces +z (counter-clockwise seen from the front).
     assert np.all(mesh.face_normals()[:, 2] > 0)
     mass = topology.vertex_masses(top.vertices, top.faces, 0.3)

@@ -9,7 +9,7 @@
 True
 """
 
-from . import colliders, constrain, fluids, io, render, rigid, scene, shapes, spatial
+from . import colliders, constrain, fluids, geometry, io, render, rigid, scene, shapes, spatial
 from .cloth import Airflow, Cloth, Keyframes, SpringFamily
 from .collide import Capsule, Friction, Response, TriangleMeshCollider
 from .constrain import ConstraintBuilder
@@ -48,6 +48,7 @@ from .forces import (
     Vortex,
     Wind,
 )
+from .geometry import TriangleMesh
 from .hair import Hair, Head
 from .hierarchy import SpawnOnEvent
 from .integrate import Integrator
@@ -142,6 +143,7 @@ __all__ = [
     "SpringFamily",
     "Springs",
     "SpriteStyle",
+    "TriangleMesh",
     "TriangleMeshCollider",
     "Uniform",
     "UniformGrid",
@@ -151,6 +153,7 @@ __all__ = [
     "colliders",
     "constrain",
     "fluids",
+    "geometry",
     "io",
     "load_scene",
     "render",

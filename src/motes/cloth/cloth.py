@@ -254,7 +254,7 @@ class Cloth:
 
     @classmethod
     def from_mesh(cls, mesh, **options) -> Cloth:
-        """A cloth from a :class:`~motes.render.mesh.TriangleMesh`, or an OBJ / PLY path."""
+        """A cloth from a :class:`~motes.geometry.TriangleMesh`, or an OBJ / PLY path."""
         if not hasattr(mesh, "faces"):
             from ..io.meshes import read_mesh
 
@@ -452,8 +452,8 @@ class Cloth:
         return self.position.T.copy()
 
     def mesh(self):
-        """The current shape as a :class:`~motes.render.mesh.TriangleMesh`."""
-        from ..render.mesh import TriangleMesh
+        """The current shape as a :class:`~motes.geometry.TriangleMesh`."""
+        from ..geometry.mesh import TriangleMesh
 
         return TriangleMesh(self.position.T, self.faces)
 

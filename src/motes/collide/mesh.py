@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import _validate as check
-from ..render.mesh import TriangleMesh
+from ..geometry.mesh import TriangleMesh
 from .colliders import Collider
 
 #: Meshes with at most this many triangles are tested brute force (one cell).
