@@ -103,11 +103,11 @@ def test_collide_kernel_matches_the_particle_twin(collider):
     rng = np.random.default_rng(9)
     x = rng.uniform(-0.6, 0.6, size=(3, 200))
     v = rng.normal(size=(3, 200))
-    table, structure = pack([collider])
+    table, _ = pack([collider])
     movable = np.ones(200, dtype=bool)
     movable[:5] = False
     got_x, got_v = x.copy(), v.copy()
-    collide_kernel(*got_x, *got_v, movable, np.array(structure, dtype=np.int64), table, 0.01)
+    collide_kernel(*got_x, *got_v, movable, table, 0.01)
     depth, normal = penetration(collider, x.T)
     px, pv, _, _ = respond(collider, x.T, v.T, depth, normal, 0.01)
     px[:5], pv[:5] = x.T[:5], v.T[:5]

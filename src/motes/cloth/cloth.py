@@ -28,6 +28,7 @@ from ..collide.contact import project_contacts
 from ..collide.mesh import TriangleMeshCollider
 from ..collide.swept import sweep_contacts
 from ..forces.springs import Springs
+from ..geometry.layout import grown
 from ..integrate.implicit import SERIAL_BELOW, ConstraintFilter, ImplicitEuler, SolveReport
 from . import topology
 from .drivers import Airflow, Keyframes
@@ -423,23 +424,8 @@ class Cloth:
         self.velocity[:, touched] = (self.position[:, touched] - previous[:, touched]) / h
 
     def _collide(self, h: float, free: np.ndarray) -> None:
-        table, structure = pack(self._shapes)
-        table = table.copy()
-        for row, c in enumerate(self._shapes):
-            grow = -self.thickness if c.inside else self.thickness
-            if structure[row][0] == 0:  # plane: move it out along its normal
-                table[row, 5] += self.thickness
-            else:  # sphere radius, box half extents
-                stop = 6 if structure[row][0] == 1 else 8
-                table[row, 5:stop] += grow
-        collide_kernel(
-            *self.position,
-            *self.velocity,
-            free,
-            np.asarray(structure, dtype=np.int64).reshape(-1, 4),
-            table,
-            h,
-        )
+        table, _ = pack(self._shapes)
+        collide_kernel(*self.position, *self.velocity, free, grown(table, self.thickness), h)
 
     # -- reading --------------------------------------------------------------------
     @property

@@ -20,11 +20,14 @@ import numba
 import numpy as np
 
 from .._jit import block_bounds, block_count, device, parallel_kernel, serial_kernel
-from .distance import BOX, MESH, PLANE, G, triangle_normal
+from ..geometry.distance import triangle_normal
+from ..geometry.layout import KIND, RESTITUTION, SWEPT, G, Kind
 
 #: Gap left between a stopped particle and the surface [m] (keeps it on the free side
 #: after round-off).
 GAP = 1e-6
+
+PLANE, BOX, MESH = int(Kind.PLANE), int(Kind.BOX), int(Kind.MESH)
 
 
 @device
@@ -58,7 +61,7 @@ def _segment_triangle(ax, ay, az, dx, dy, dz, tri, t):
 @serial_kernel
 def _sweep_one(row, tri, cell_start, cell_tris, ax, ay, az, dx, dy, dz, r):
     """Earliest hit (fraction, normal, stand-off) of the segment a -> a + d, or inf."""
-    kind = int(row[0])
+    kind = int(row[KIND])
     if kind == PLANE:
         nx, ny, nz = row[G], row[G + 1], row[G + 2]
         s0 = ax * nx + ay * ny + az * nz - row[G + 3] - r
@@ -150,7 +153,7 @@ def sweep_contacts(
             bc = -1
             bx = by = bz = off = 0.0
             for c in range(table.shape[0]):
-                if table[c, 3] == 0.0:
+                if table[c, SWEPT] == 0.0:
                     continue
                 t, nx, ny, nz, o = _sweep_one(
                     table[c], tri, cell_start, cell_tris, ax, ay, az, dx, dy, dz, radius[p]
@@ -166,7 +169,7 @@ def sweep_contacts(
             z = az + best * dz + stand * bz
             # Reflect the step's displacement: tangential kept, normal times -e.
             dn = dx * bx + dy * by + dz * bz
-            e = table[bc, 2]
+            e = table[bc, RESTITUTION]
             vx = dx - (1.0 + e) * dn * bx
             vy = dy - (1.0 + e) * dn * by
             vz = dz - (1.0 + e) * dn * bz
