@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from motes.collide.colliders import Friction, Kind, Response
+import naive_distance
+from motes.collide.colliders import Friction, Response
 
 
 def field_acceleration(v, w, gravity, k_lin, k_wind, k_quad, q_wind):
@@ -16,35 +17,10 @@ def field_acceleration(v, w, gravity, k_lin, k_wind, k_quad, q_wind):
 
 
 def penetration(collider, p):
-    """(depth (n,), normal (n, 3)) of points p against one collider."""
-    kind = collider.kind
-    if kind == Kind.PLANE:
-        n = np.broadcast_to(collider.normal, p.shape)
-        return collider.offset - p @ collider.normal, n
-    if kind == Kind.SPHERE:
-        d = p - collider.center
-        dist = np.linalg.norm(d, axis=1)
-        n = np.where(dist[:, None] > 0, d / np.where(dist > 0, dist, 1)[:, None], [0, 1, 0])
-        if collider.inside:
-            return dist - collider.radius, -n
-        return collider.radius - dist, n
-    R = collider.rotation
-    h = collider.half_extent
-    local = (p - collider.center) @ R
-    if collider.inside:
-        disp = np.clip(local, -h, h) - local
-        depth = np.linalg.norm(disp, axis=1)
-        n_local = disp / np.where(depth > 0, depth, 1)[:, None]
-        inner = -np.min(h - np.abs(local), axis=1)
-        depth = np.where(depth > 0, depth, inner)
-    else:
-        q = np.abs(local) - h
-        axis = np.argmax(q, axis=1)
-        # Ties resolved like the kernel: u before v before w.
-        depth = -q[np.arange(len(q)), axis]
-        n_local = np.zeros_like(local)
-        n_local[np.arange(len(q)), axis] = np.where(local[np.arange(len(q)), axis] >= 0, 1, -1)
-    return depth, n_local @ R.T
+    """(depth (n,), normal (n, 3)) of points p against one collider: minus the signed
+    distance of its packed row (the twin in :mod:`naive_distance`)."""
+    d, n = naive_distance.signed_distance(collider.packed(), p)
+    return -d, n
 
 
 def respond(collider, p, v, depth, n, dt):

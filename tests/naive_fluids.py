@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+import naive_distance
+
 
 def neighbor_sets(points: np.ndarray, radius: float, queries: np.ndarray | None = None):
     """Brute force: for each query (rows of (m, 3)), the set of points within ``radius``.
@@ -55,27 +57,8 @@ def wall_share(d, spacing, h, scale):
 
 # -- boundaries ---------------------------------------------------------------------------
 def signed_distance(row, p):
-    """(d, n) of points p (m, 3) to one packed boundary row."""
-    kind, sign = int(row[0]), row[1]
-    a, b, c = row[2:5], row[5:8], row[8]
-    if kind == 0:
-        return p @ a - c, np.broadcast_to(a, p.shape)
-    if kind == 1:
-        rel = p - a
-        sgn = np.where(rel >= 0, 1.0, -1.0)
-        q = np.abs(rel) - b
-        out = np.clip(q, 0, None)
-        dist = np.linalg.norm(out, axis=1)
-        inside = dist == 0
-        axis = np.argmax(q, axis=1)
-        n_in = np.zeros_like(p)
-        n_in[np.arange(len(p)), axis] = sgn[np.arange(len(p)), axis]
-        n_out = sgn * out / np.where(inside, 1, dist)[:, None]
-        d = np.where(inside, q.max(axis=1), dist)
-        return d, np.where(inside[:, None], n_in, n_out)
-    rel = p - a
-    r = np.linalg.norm(rel, axis=1)
-    return sign * (r - c), sign * rel / r[:, None]
+    """(d, n) of points p (m, 3) to one packed boundary row (the shared twin)."""
+    return naive_distance.signed_distance(row, p)
 
 
 def walls(rows, p, h, spacing, scale):

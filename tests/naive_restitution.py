@@ -2,27 +2,20 @@
 
 import numpy as np
 
+from motes.geometry.layout import RESTITUTION
+from naive_distance import signed_distance
+
 SLOP = 1e-6
-
-
-def plane_or_sphere(row, x):
-    """Signed distances (n,) and normals (n, 3) for a packed plane (0) or sphere (1) row."""
-    if row[0] == 0:
-        n = row[4:7]
-        return x @ n - row[7], np.broadcast_to(n, x.shape)
-    d = x - row[4:7]
-    dist = np.linalg.norm(d, axis=1)
-    return dist - row[7], d / dist[:, None]
 
 
 def restitute_contacts(x, q, before, radius, inv_mass, table, rest):
     """Müller et al. 2020 eq. 34 for plane and sphere rows; returns the new ``q`` (n, 3)."""
     q = q.copy()
     for row in table:
-        e = row[2]
+        e = row[RESTITUTION]
         if e <= 0:
             continue
-        s, n = plane_or_sphere(row, x)
+        s, n = signed_distance(row, x)
         vbar = np.einsum("ij,ij->i", before - q, n)
         v = np.einsum("ij,ij->i", x - q, n)
         hit = (s <= radius + SLOP) & (-vbar > rest) & (inv_mass > 0)

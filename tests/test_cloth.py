@@ -22,7 +22,7 @@ def test_grid_topology_counts_and_mass():
     assert len(top.structural) == ny * (nx - 1) + nx * (ny - 1)
     assert len(top.shear) == 2 * (nx - 1) * (ny - 1)
     assert len(top.bending) == ny * (nx - 2) + nx * (ny - 2)
-    mesh = mo.render.mesh.TriangleMesh(top.vertices, top.faces)
+    mesh = mo.TriangleMesh(top.vertices, top.faces)
     # Every triangle faces +z (counter-clockwise seen from the front).
     assert np.all(mesh.face_normals()[:, 2] > 0)
     mass = topology.vertex_masses(top.vertices, top.faces, 0.3)
@@ -103,11 +103,11 @@ def test_collide_kernel_matches_the_particle_twin(collider):
     rng = np.random.default_rng(9)
     x = rng.uniform(-0.6, 0.6, size=(3, 200))
     v = rng.normal(size=(3, 200))
-    table, structure = pack([collider])
+    table, _ = pack([collider])
     movable = np.ones(200, dtype=bool)
     movable[:5] = False
     got_x, got_v = x.copy(), v.copy()
-    collide_kernel(*got_x, *got_v, movable, np.array(structure, dtype=np.int64), table, 0.01)
+    collide_kernel(*got_x, *got_v, movable, table, 0.01)
     depth, normal = penetration(collider, x.T)
     px, pv, _, _ = respond(collider, x.T, v.T, depth, normal, 0.01)
     px[:5], pv[:5] = x.T[:5], v.T[:5]

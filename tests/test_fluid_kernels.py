@@ -10,6 +10,8 @@ from scipy.integrate import quad
 import naive_fluids as naive
 from motes.fluids import Box, Plane, Sphere, Tank, _kernels, sph
 from motes.fluids.boundaries import pack
+from motes.geometry.distance import row_signed_distance
+from motes.geometry.layout import KIND, Kind
 from motes.spatial import UniformGrid
 
 H = 0.1
@@ -242,7 +244,8 @@ def test_projection_puts_particles_at_the_radius_from_every_wall(rng):
     assert np.all((p >= 0.01 - 1e-6) & (p <= 0.99 + 1e-6))
     for row in rows[6:]:
         d, _ = naive.signed_distance(row, p.T.astype(float))
-        assert d.min() > 0.01 - 1e-5 or row[0] == 1  # the box may push into the ball's reach
+        # The box may push into the ball's reach.
+        assert d.min() > 0.01 - 1e-5 or row[KIND] == Kind.BOX
     moved = np.linalg.norm(p - before, axis=0)
     assert np.all(depth <= moved + 1e-5) and depth.max() > 0.4
 
@@ -258,7 +261,7 @@ def test_signed_distances_match_the_twin(rng):
     p = rng.uniform(-1, 1, (200, 3))
     for b, row in enumerate(rows):
         d, nrm = naive.signed_distance(row, p)
-        ours = np.array([_kernels.signed_distance(rows, b, *x) for x in p])
+        ours = np.array([row_signed_distance(rows, b, *x, 1.0) for x in p])
         assert_allclose(ours[:, 0], d, atol=1e-12)
         assert_allclose(ours[:, 1:], nrm, atol=1e-12)
 

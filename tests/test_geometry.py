@@ -9,9 +9,9 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 import motes as mo
 import naive_geometry as naive
+from motes.geometry import TriangleMesh
 from motes.render.frame import Frame
 from motes.render.geometry import Box, Ground, Lines, Mesh, Sphere, draw_geometry, icosphere
-from motes.render.mesh import TriangleMesh
 from motes.render.shading import AmbientLight, DirectionalLight, Material
 
 W, H = 48, 32

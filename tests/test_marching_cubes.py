@@ -5,13 +5,13 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
+from motes.geometry import TriangleMesh
 from motes.render.marching_cubes import (
     CORNER_OFFSETS,
     EDGE_CORNERS,
     case_tables,
     marching_cubes,
 )
-from motes.render.mesh import TriangleMesh
 from naive_metaballs import (
     component_count,
     grid_nodes,

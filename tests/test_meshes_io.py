@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
+from motes.geometry import TriangleMesh
 from motes.io.meshes import MeshFormatError, read_mesh, read_obj, read_ply, write_obj, write_ply
-from motes.render.mesh import TriangleMesh
 
 QUAD_OBJ = """# a unit quad and a triangle, with normals and texture coordinates to ignore
 o quad

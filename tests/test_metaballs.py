@@ -6,8 +6,8 @@ import numba
 import numpy as np
 import pytest
 
+from motes.geometry import TriangleMesh
 from motes.render import metaballs as metaballs_module
-from motes.render.mesh import TriangleMesh
 from motes.render.metaballs import Metaballs
 from naive_metaballs import component_count, grid_nodes, is_closed_and_oriented, reach2
 from naive_metaballs import field as naive_field

@@ -9,7 +9,7 @@
 True
 """
 
-from . import colliders, constrain, fluids, io, render, rigid, scene, shapes, spatial
+from . import colliders, constrain, fluids, geometry, io, render, rigid, scene, shapes, spatial
 from ._version import __version__ as __version__
 from .cloth import Airflow, Cloth, Keyframes, SpringFamily
 from .collide import Capsule, Friction, Response, TriangleMeshCollider
@@ -49,6 +49,7 @@ from .forces import (
     Vortex,
     Wind,
 )
+from .geometry import TriangleMesh
 from .hair import Hair, Head
 from .hierarchy import SpawnOnEvent
 from .integrate import Integrator
@@ -141,6 +142,7 @@ __all__ = [
     "SpringFamily",
     "Springs",
     "SpriteStyle",
+    "TriangleMesh",
     "TriangleMeshCollider",
     "Uniform",
     "UniformGrid",
@@ -150,6 +152,7 @@ __all__ = [
     "colliders",
     "constrain",
     "fluids",
+    "geometry",
     "io",
     "load_scene",
     "render",

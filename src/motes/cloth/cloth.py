@@ -30,6 +30,7 @@ from ..collide.mesh import TriangleMeshCollider
 from ..collide.swept import sweep_contacts
 from ..forces.apply import add_forces, check_force, force_state, split_implicit
 from ..forces.springs import Springs
+from ..geometry.layout import grown
 from ..integrate.implicit import SERIAL_BELOW, ConstraintFilter, ImplicitEuler, SolveReport
 from ..state import Field, ParticleState
 from . import topology
@@ -263,7 +264,7 @@ class Cloth:
 
     @classmethod
     def from_mesh(cls, mesh, **options) -> Cloth:
-        """A cloth from a :class:`~motes.render.mesh.TriangleMesh`, or an OBJ / PLY path."""
+        """A cloth from a :class:`~motes.geometry.TriangleMesh`, or an OBJ / PLY path."""
         if not hasattr(mesh, "faces"):
             from ..io.meshes import read_mesh
 
@@ -448,23 +449,8 @@ class Cloth:
         self.velocity[:, touched] = (self.position[:, touched] - previous[:, touched]) / h
 
     def _collide(self, h: float, free: np.ndarray) -> None:
-        table, structure = pack(self._shapes)
-        table = table.copy()
-        for row, c in enumerate(self._shapes):
-            grow = -self.thickness if c.inside else self.thickness
-            if structure[row][0] == 0:  # plane: move it out along its normal
-                table[row, 5] += self.thickness
-            else:  # sphere radius, box half extents
-                stop = 6 if structure[row][0] == 1 else 8
-                table[row, 5:stop] += grow
-        collide_kernel(
-            *self.position,
-            *self.velocity,
-            free,
-            np.asarray(structure, dtype=np.int64).reshape(-1, 4),
-            table,
-            h,
-        )
+        table, _ = pack(self._shapes)
+        collide_kernel(*self.position, *self.velocity, free, grown(table, self.thickness), h)
 
     # -- reading --------------------------------------------------------------------
     @property
@@ -493,8 +479,8 @@ class Cloth:
         return self.position.T.copy()
 
     def mesh(self):
-        """The current shape as a :class:`~motes.render.mesh.TriangleMesh`."""
-        from ..render.mesh import TriangleMesh
+        """The current shape as a :class:`~motes.geometry.TriangleMesh`."""
+        from ..geometry.mesh import TriangleMesh
 
         return TriangleMesh(self.position.T, self.faces)
 

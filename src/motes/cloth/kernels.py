@@ -12,7 +12,9 @@ import numba
 import numpy as np
 
 from .._jit import block_bounds, block_count, device, parallel_kernel
-from ..collide.geometry import penetration, respond
+from ..collide.response import respond
+from ..geometry.distance import row_signed_distance
+from ..geometry.layout import FRICTION_MODEL, RESPONSE
 
 
 @device
@@ -118,17 +120,18 @@ def gather_triangles_kernel(tri_force, first, tris, out_x, out_y, out_z):
 
 
 @parallel_kernel
-def collide_kernel(x, y, z, vx, vy, vz, movable, structure, table, dt):
+def collide_kernel(x, y, z, vx, vy, vz, movable, table, dt):
     """Push movable particles out of every collider and apply its velocity response.
 
-    ``structure`` (k, 4) int: kind, inside, response, friction model of each collider
-    (:meth:`motes.collide.colliders.Collider.structure`), read at run time so one
-    compiled kernel serves any set of colliders; ``table`` (k, 17) their packed rows
-    (thickness already added). Same geometry and response functions as the fused
-    particle kernel (:mod:`motes.collide.geometry`). Returns nothing; writes in place.
+    ``table`` (k, ROW) float64: packed collider rows (:mod:`motes.geometry.layout`,
+    thickness already added, :func:`motes.geometry.layout.grown`), whose kind, inside,
+    response and friction model are read at run time so one compiled kernel serves any
+    set of colliders. Same distance and response functions as the fused particle kernel
+    (:func:`motes.geometry.distance.signed_distance`,
+    :func:`motes.collide.response.respond`). Writes in place.
     """
     n = x.shape[0]
-    k = structure.shape[0]
+    k = table.shape[0]
     one = 1.0
     for block in numba.prange(block_count(n)):
         start, stop = block_bounds(block, n)
@@ -142,20 +145,18 @@ def collide_kernel(x, y, z, vx, vy, vz, movable, structure, table, dt):
             uy = vy[i]
             uz = vz[i]
             for c in range(k):
-                depth, nx, ny, nz = penetration(
-                    structure[c, 0], structure[c, 1], px, py, pz, table, c, one
-                )
-                if depth > 0.0:
+                dist, nx, ny, nz = row_signed_distance(table, c, px, py, pz, one)
+                if dist < 0.0:
                     px, py, pz, ux, uy, uz, _, _ = respond(
-                        structure[c, 2],
-                        structure[c, 3],
+                        int(table[c, RESPONSE]),
+                        int(table[c, FRICTION_MODEL]),
                         px,
                         py,
                         pz,
                         ux,
                         uy,
                         uz,
-                        depth,
+                        -dist,
                         nx,
                         ny,
                         nz,

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import _validate as check
+from ..geometry.layout import Kind
 from .colliders import Collider
 
 
@@ -24,7 +25,7 @@ class Capsule(Collider):
         Coulomb coefficient mu >= 0 (the rigid world's depth-based friction).
     """
 
-    kind = None
+    kind = Kind.CAPSULE
 
     def __init__(self, a=(0.0, 0.0, 0.0), b=(0.0, 1.0, 0.0), radius: float = 0.1, **response):
         response.setdefault("friction_model", "depth")

@@ -2,7 +2,7 @@
 
 Detection is a posteriori: after the move, a particle found inside a collider's solid
 region is pushed out along the collider's normal, then its velocity responds (see
-:mod:`motes.collide.geometry`). Every collider can hold particles *outside* its solid
+:mod:`motes.collide.response`). Every collider can hold particles *outside* its solid
 (a ball on the ground) or, with ``inside=True``, *inside* it (particles in a tank).
 """
 
@@ -14,6 +14,9 @@ import numpy as np
 
 from .. import _validate as check
 from .._tracked import Tracked
+from ..geometry.layout import Kind, pack_row, stack
+
+__all__ = ["Box", "Collider", "Friction", "Kind", "Plane", "Response", "Sphere", "pack"]
 
 
 class Response(IntEnum):
@@ -34,18 +37,6 @@ class Friction(IntEnum):
     #: ``|v_t| <- max(0, |v_t| - mu p / dt)`` (Jakobsen 2001: tangential velocity reduced
     #: in proportion to the penetration depth).
     DEPTH = 1
-
-
-class Kind(IntEnum):
-    """Geometric kind of a collider (selects the distance function in the kernel)."""
-
-    PLANE = 0
-    SPHERE = 1
-    BOX = 2
-
-
-#: Number of columns of a packed collider row (see :meth:`Collider.packed`).
-ROW_WIDTH = 17
 
 
 class Collider(Tracked):
@@ -96,13 +87,17 @@ class Collider(Tracked):
         raise TypeError(f"{type(self).__name__} is abstract")
 
     def packed(self) -> np.ndarray:
-        """Row of :data:`ROW_WIDTH` floats: restitution, friction, then geometry."""
-        row = np.zeros(ROW_WIDTH)
-        geom = self._geometry()
-        row[0] = self.restitution
-        row[1] = self.friction
-        row[2 : 2 + len(geom)] = geom
-        return row
+        """This collider as one row of the collider layout (:mod:`motes.geometry.layout`):
+        float64, shape (ROW,)."""
+        return pack_row(
+            self.kind,
+            self._geometry(),
+            inside=self.inside,
+            response=int(self.response),
+            friction_model=int(self.friction_model),
+            restitution=self.restitution,
+            friction=self.friction,
+        )
 
 
 def _enum(name, value, enum):
@@ -199,6 +194,7 @@ class Box(Collider):
 
 
 def pack(colliders) -> tuple[np.ndarray, tuple]:
-    """Table of rows ``(k, ROW_WIDTH)`` and the structure tuple the kernel compiles for."""
-    table = np.array([c.packed() for c in colliders]).reshape(len(colliders), ROW_WIDTH)
+    """Table of rows ``(k, ROW)`` and the structure tuple the kernel compiles for."""
+    colliders = list(colliders)
+    table = stack(c.packed() for c in colliders)
     return table, tuple(c.structure for c in colliders)

@@ -19,14 +19,12 @@ from enum import StrEnum
 import numba
 import numpy as np
 
-from .._jit import block_bounds, block_count, device, parallel_kernel
+from .._jit import block_bounds, block_count, parallel_kernel
+from ..geometry.distance import collider_distance
+from ..geometry.layout import FRICTION, SWEPT, G, stack
 from .capsule import Capsule
 from .colliders import Box, Collider, Plane, Response, Sphere
-from .distance import BOX, CAPSULE, MESH, PLANE, SPHERE, mesh_distance, shape_distance
 from .mesh import TriangleMeshCollider
-
-#: Columns of a packed row: kind, friction, restitution, a-priori flag, 15 geometry.
-ROW = 19
 
 
 class Detection(StrEnum):
@@ -63,57 +61,35 @@ def check_collider(collider, detection) -> Detection:
 
 
 def pack(colliders, detections):
-    """Rows ``(k, ROW)`` float64 and the concatenated mesh data.
+    """Rows ``(k, ROW)`` float64 (:mod:`motes.geometry.layout`) and the concatenated
+    mesh data.
 
     Returns ``table, triangles (t, 9), cell_start, cell_triangles``.
     """
-    table = np.zeros((len(colliders), ROW))
+    rows = []
     tris = [np.zeros((0, 9))]
     starts = [np.zeros(1, dtype=np.int64)]
     lists = [np.zeros(0, dtype=np.int64)]
     tri_offset = cell_offset = 0
-    for c, (col, det) in enumerate(zip(colliders, detections, strict=True)):
-        row = table[c]
-        row[1] = col.friction
-        row[2] = col.restitution
-        row[3] = det == Detection.PRIORI
-        if isinstance(col, Plane):
-            row[0] = PLANE
-            row[4:8] = [*col.normal, col.offset]
-        elif isinstance(col, Sphere):
-            row[0] = SPHERE
-            row[4:8] = [*col.center, col.radius]
-        elif isinstance(col, Box):
-            row[0] = BOX
-            row[4:19] = [*col.center, *col.half_extent, *col.rotation.T.ravel()]
-        elif isinstance(col, Capsule):
-            row[0] = CAPSULE
-            row[4:11] = [*col.a, *col.b, col.radius]
-        elif isinstance(col, TriangleMeshCollider):
-            row[0] = MESH
-            cells = int(np.prod(col.dims))
-            row[4:13] = [*col.origin, col.cell_size, *col.dims, cell_offset, col.thickness]
+    for col, det in zip(colliders, detections, strict=True):
+        if not isinstance(col, (Plane, Sphere, Box, Capsule, TriangleMeshCollider)):
+            raise TypeError(f"unsupported collider {type(col).__name__}")
+        row = col.packed()
+        row[SWEPT] = det == Detection.PRIORI
+        if isinstance(col, TriangleMeshCollider):
+            row[G + 7] = cell_offset
             tris.append(col.triangles)
             starts.append(col.cell_start[1:] + starts[-1][-1])
             lists.append(col.cell_triangles + tri_offset)
             tri_offset += len(col.triangles)
-            cell_offset += cells
-        else:
-            raise TypeError(f"unsupported collider {type(col).__name__}")
+            cell_offset += int(np.prod(col.dims))
+        rows.append(row)
     return (
-        table,
+        stack(rows),
         np.ascontiguousarray(np.concatenate(tris)),
         np.concatenate(starts).astype(np.int64),
         np.concatenate(lists).astype(np.int64),
     )
-
-
-@device
-def collider_distance(table, c, tri, cell_start, cell_tris, px, py, pz, qx, qy, qz, reach):
-    kind = int(table[c, 0])
-    if kind == MESH:
-        return mesh_distance(table[c], tri, cell_start, cell_tris, px, py, pz, qx, qy, qz, reach)
-    return shape_distance(kind, table[c], px, py, pz)
 
 
 @parallel_kernel
@@ -158,7 +134,7 @@ def project_contacts(
                 dn = dx * nx + dy * ny + dz * nz
                 tx, ty, tz = dx - dn * nx, dy - dn * ny, dz - dn * nz
                 t = np.sqrt(tx * tx + ty * ty + tz * tz)
-                cut = min(1.0, table[c, 1] * depth / t) if t > 0.0 else 0.0
+                cut = min(1.0, table[c, FRICTION] * depth / t) if t > 0.0 else 0.0
                 px[p] = x - cut * tx
                 py[p] = y - cut * ty
                 pz[p] = z - cut * tz

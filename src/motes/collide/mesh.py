@@ -13,7 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from .. import _validate as check
-from ..render.mesh import TriangleMesh
+from ..geometry.layout import Kind
+from ..geometry.mesh import TriangleMesh
 from .colliders import Collider
 
 #: Meshes with at most this many triangles are tested brute force (one cell).
@@ -35,7 +36,7 @@ class TriangleMeshCollider(Collider):
         Coulomb coefficient mu >= 0.
     """
 
-    kind = None
+    kind = Kind.MESH
 
     def __init__(self, mesh, *, thickness: float = 0.0, cell_size: float | None = None, **response):
         response.setdefault("friction_model", "depth")
@@ -61,6 +62,11 @@ class TriangleMeshCollider(Collider):
     @property
     def structure(self):
         raise TypeError("TriangleMeshCollider collides with motes.rigid.World particles only")
+
+    def _geometry(self):
+        # The index of the first cell is the mesh's place in a table's concatenated
+        # grid: :func:`motes.collide.contact.pack` fills it in.
+        return [*self.origin, self.cell_size, *self.dims, 0.0, self.thickness]
 
     def _boxes(self):
         corners = self.triangles.reshape(-1, 3, 3)

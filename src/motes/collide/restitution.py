@@ -23,7 +23,8 @@ from __future__ import annotations
 import numba
 
 from .._jit import block_bounds, block_count, parallel_kernel
-from .contact import collider_distance
+from ..geometry.distance import collider_distance
+from ..geometry.layout import RESTITUTION
 
 #: A particle within this distance [m] of its contact surface after the solve is in
 #: contact (projection leaves it at exactly its radius, up to round-off).
@@ -49,7 +50,7 @@ def restitute_contacts(
                 continue
             r = radius[p]
             for c in range(table.shape[0]):
-                e = table[c, 2]
+                e = table[c, RESTITUTION]
                 if e <= 0.0:
                     continue
                 s, nx, ny, nz = collider_distance(

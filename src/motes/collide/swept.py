@@ -19,46 +19,21 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .._jit import block_bounds, block_count, device, parallel_kernel, serial_kernel
-from .distance import BOX, MESH, PLANE, G, triangle_normal
+from .._jit import block_bounds, block_count, parallel_kernel, serial_kernel
+from ..geometry.distance import segment_triangle, triangle_normal
+from ..geometry.layout import KIND, RESTITUTION, SWEPT, G, Kind
 
 #: Gap left between a stopped particle and the surface [m] (keeps it on the free side
 #: after round-off).
 GAP = 1e-6
 
-
-@device
-def _segment_triangle(ax, ay, az, dx, dy, dz, tri, t):
-    """Fraction along a + s d where the segment crosses triangle t, or inf."""
-    e1x, e1y, e1z = tri[t, 3] - tri[t, 0], tri[t, 4] - tri[t, 1], tri[t, 5] - tri[t, 2]
-    e2x, e2y, e2z = tri[t, 6] - tri[t, 0], tri[t, 7] - tri[t, 1], tri[t, 8] - tri[t, 2]
-    hx = dy * e2z - dz * e2y
-    hy = dz * e2x - dx * e2z
-    hz = dx * e2y - dy * e2x
-    det = e1x * hx + e1y * hy + e1z * hz
-    if abs(det) < 1e-300:
-        return np.inf
-    f = 1.0 / det
-    sx, sy, sz = ax - tri[t, 0], ay - tri[t, 1], az - tri[t, 2]
-    u = f * (sx * hx + sy * hy + sz * hz)
-    if u < 0.0 or u > 1.0:
-        return np.inf
-    qx = sy * e1z - sz * e1y
-    qy = sz * e1x - sx * e1z
-    qz = sx * e1y - sy * e1x
-    v = f * (dx * qx + dy * qy + dz * qz)
-    if v < 0.0 or u + v > 1.0:
-        return np.inf
-    s = f * (e2x * qx + e2y * qy + e2z * qz)
-    if s < 0.0 or s > 1.0:
-        return np.inf
-    return s
+PLANE, BOX, MESH = int(Kind.PLANE), int(Kind.BOX), int(Kind.MESH)
 
 
 @serial_kernel
 def _sweep_one(row, tri, cell_start, cell_tris, ax, ay, az, dx, dy, dz, r):
     """Earliest hit (fraction, normal, stand-off) of the segment a -> a + d, or inf."""
-    kind = int(row[0])
+    kind = int(row[KIND])
     if kind == PLANE:
         nx, ny, nz = row[G], row[G + 1], row[G + 2]
         s0 = ax * nx + ay * ny + az * nz - row[G + 3] - r
@@ -116,7 +91,7 @@ def _sweep_one(row, tri, cell_start, cell_tris, ax, ay, az, dx, dy, dz, r):
                 for k in range(lo[2], hi[2] + 1):
                     c = offset + (i * n1 + j) * n2 + k
                     for e in range(cell_start[c], cell_start[c + 1]):
-                        s = _segment_triangle(ax, ay, az, dx, dy, dz, tri, cell_tris[e])
+                        s = segment_triangle(ax, ay, az, dx, dy, dz, tri, cell_tris[e])
                         if s < best:
                             best = s
                             bt = cell_tris[e]
@@ -150,7 +125,7 @@ def sweep_contacts(
             bc = -1
             bx = by = bz = off = 0.0
             for c in range(table.shape[0]):
-                if table[c, 3] == 0.0:
+                if table[c, SWEPT] == 0.0:
                     continue
                 t, nx, ny, nz, o = _sweep_one(
                     table[c], tri, cell_start, cell_tris, ax, ay, az, dx, dy, dz, radius[p]
@@ -166,7 +141,7 @@ def sweep_contacts(
             z = az + best * dz + stand * bz
             # Reflect the step's displacement: tangential kept, normal times -e.
             dn = dx * bx + dy * by + dz * bz
-            e = table[bc, 2]
+            e = table[bc, RESTITUTION]
             vx = dx - (1.0 + e) * dn * bx
             vy = dy - (1.0 + e) * dn * by
             vz = dz - (1.0 + e) * dn * bz

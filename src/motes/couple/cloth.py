@@ -32,8 +32,7 @@ from numba import prange
 from .. import _validate as check
 from .._jit import block_bounds, block_count, device, parallel_kernel, serial_kernel
 from ..collide.between import KindContact
-from ..collide.distance import closest_on_triangle, triangle_normal
-from ..collide.swept import _segment_triangle as segment_triangle
+from ..geometry.distance import closest_on_triangle, segment_triangle, triangle_normal
 from ..spatial.triangles import TriangleGrid
 
 RESPONSES = ("bounce", "kill")

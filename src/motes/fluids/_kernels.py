@@ -7,8 +7,9 @@ evaluate each pair's term from quantities symmetric in ``i`` and ``j``: the term
 ``j`` on ``i`` is exactly minus that of ``i`` on ``j``, so momentum is conserved to
 round-off.
 
-Boundary rows are packed by ``boundaries.pack``; distances are signed (positive on the
-fluid side) with the normal pointing into the fluid.
+Boundary rows are packed by ``boundaries.pack`` in the collider layout of every solver
+(:mod:`motes.geometry.layout`) and measured by its one signed distance: positive on the
+fluid side, the normal pointing into the fluid.
 """
 
 from __future__ import annotations
@@ -16,73 +17,25 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
-from .._jit import block_bounds, block_count, device, parallel_kernel
+from .._jit import block_bounds, block_count, called, device, parallel_kernel
+from ..geometry.distance import row_signed_distance
+from ..geometry.layout import ADHESION, FRICTION, FRICTION_MODEL
 from ..spatial._kernels import cell_coordinate
-from .boundaries import (
-    A0,
-    A1,
-    A2,
-    ADHESION,
-    B0,
-    B1,
-    B2,
-    BOX,
-    FRICTION,
-    FRICTION_MODEL,
-    KIND,
-    PLANE,
-    SIGN,
-    C,
-)
 from .sph import poly6, spiky, spiky_gradient_scale, wall_share
 
 #: Akinci et al. 2013, eq. 2: cohesion spline normalisation, 32 / π.
 COHESION = 32.0 / math.pi
 #: Akinci et al. 2013, eq. 7: adhesion spline normalisation, 0.007.
 ADHESION_SCALE = 0.007
-#: The wall passes (``walls``, ``push_out``) are compiled like device functions but
-#: called, not inlined at Numba's level: each is used by several kernels, and inlining
-#: every copy (each with the distance of every boundary kind inlined) tripled the
-#: kernels' compile time (13.6 s against 4.4 s for the three) for no measurable speed.
-boundary_function = njit(fastmath=True, error_model="numpy")
+#: The wall passes (``walls``, ``push_out``) are called, not inlined (``_jit.called``):
+#: each is used by several kernels, and inlining every copy (each with the distance of
+#: every boundary kind inlined) tripled the kernels' compile time.
+boundary_function = called
 
 #: Quadrature nodes over the wall plane for the adhesion of a flat wall.
 _WALL_NODES = 8
-
-
-@device
-def signed_distance(rows, b, x, y, z):
-    """Signed distance [m] of a point to boundary ``b`` and the unit normal into the fluid."""
-    kind = rows[b, KIND]
-    if kind == PLANE:
-        nx, ny, nz = rows[b, A0], rows[b, A1], rows[b, A2]
-        return nx * x + ny * y + nz * z - rows[b, C], nx, ny, nz
-    if kind == BOX:
-        qx = abs(x - rows[b, A0]) - rows[b, B0]
-        qy = abs(y - rows[b, A1]) - rows[b, B1]
-        qz = abs(z - rows[b, A2]) - rows[b, B2]
-        sx = 1.0 if x >= rows[b, A0] else -1.0
-        sy = 1.0 if y >= rows[b, A1] else -1.0
-        sz = 1.0 if z >= rows[b, A2] else -1.0
-        ox, oy, oz = max(qx, 0.0), max(qy, 0.0), max(qz, 0.0)
-        outside = math.sqrt(ox * ox + oy * oy + oz * oz)
-        if outside > 0.0:
-            return outside, sx * ox / outside, sy * oy / outside, sz * oz / outside
-        # Inside the solid: out through the face of least penetration.
-        if qx >= qy and qx >= qz:
-            return qx, sx, 0.0, 0.0
-        if qy >= qz:
-            return qy, 0.0, sy, 0.0
-        return qz, 0.0, 0.0, sz
-    # Sphere: sign +1 a solid ball, -1 a bowl holding the fluid inside.
-    sign = rows[b, SIGN]
-    dx, dy, dz = x - rows[b, A0], y - rows[b, A1], z - rows[b, A2]
-    r = math.sqrt(dx * dx + dy * dy + dz * dz)
-    if r == 0.0:
-        return sign * (0.0 - rows[b, C]), sign, 0.0, 0.0
-    return sign * (r - rows[b, C]), sign * dx / r, sign * dy / r, sign * dz / r
 
 
 @boundary_function
@@ -98,7 +51,7 @@ def walls(rows, x, y, z, h, spacing, scale):
     free = 1.0
     gx = gy = gz = 0.0
     for b in range(rows.shape[0]):
-        d, nx, ny, nz = signed_distance(rows, b, x, y, z)
+        d, nx, ny, nz = row_signed_distance(rows, b, x, y, z, 1.0)
         if d < h:
             f, slope = wall_share(d, spacing, h, scale)
             # ∇(1 - Q·(1 - f)) = (1 - f) ∇(1 - Q) + Q f' n.
@@ -116,7 +69,7 @@ def push_out(rows, radius, x, y, z):
     clamps into the box exactly, corners included."""
     deepest = 0.0
     for b in range(rows.shape[0]):
-        d, nx, ny, nz = signed_distance(rows, b, x, y, z)
+        d, nx, ny, nz = row_signed_distance(rows, b, x, y, z, 1.0)
         push = radius - d
         if push > 0.0:
             x += push * nx
@@ -392,7 +345,7 @@ def boundary_velocity(px, py, pz, vx, vy, vz, depth, rows, coefficients):
             x, y, z = np.float64(px[i]), np.float64(py[i]), np.float64(pz[i])
             u, v, w = np.float64(vx[i]), np.float64(vy[i]), np.float64(vz[i])
             for b in range(rows.shape[0]):
-                d, nx, ny, nz = signed_distance(rows, b, x, y, z)
+                d, nx, ny, nz = row_signed_distance(rows, b, x, y, z, 1.0)
                 if d >= h:
                     continue
                 beta = rows[b, ADHESION]

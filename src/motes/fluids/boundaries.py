@@ -1,11 +1,14 @@
 """Solid boundaries of a fluid, by signed distance: planes, tanks, boxes and spheres;
 and triangle meshes, by collision only (:class:`MeshWall`).
 
-Each boundary keeps fluid particles on its fluid side: the solver pushes a particle
-closer than its radius back to that distance (so no particle leaves a closed tank), counts
-the wall inside a particle's neighbourhood as fluid at rest density (the rest lattice
-continued beyond it, :func:`motes.fluids.sph.wall_share`), and applies the boundary's own
-adhesion (Akinci, Akinci & Teschner 2013) and friction.
+Boundaries pack into the collider rows of every solver (:mod:`motes.geometry.layout`)
+and are measured by the one signed distance
+(:func:`motes.geometry.distance.signed_distance`). Each keeps fluid particles on its
+fluid side: the solver pushes a particle closer than its radius back to that distance
+(so no particle leaves a closed tank), counts the wall inside a particle's
+neighbourhood as fluid at rest density (the rest lattice continued beyond it,
+:func:`motes.fluids.sph.wall_share`), and applies the boundary's own adhesion (Akinci,
+Akinci & Teschner 2013) and friction.
 
 Friction models against a boundary, for particles in contact with it:
 
@@ -22,13 +25,10 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from .. import _validate
+from ..geometry.layout import ROW, Kind, pack_row, stack
 
-PLANE, BOX, SPHERE = 0, 1, 2
+#: Friction models by their code in a row's ``FRICTION_MODEL`` column.
 FRICTION_MODELS = ("scale", "depth")
-
-#: Columns of a packed boundary row (float64).
-KIND, SIGN, A0, A1, A2, B0, B1, B2, C, ADHESION, FRICTION_MODEL, FRICTION = range(12)
-ROW = 12
 
 
 class Boundary(ABC):
@@ -54,16 +54,23 @@ class Boundary(ABC):
             self.friction = _validate.non_negative("friction", friction)
 
     def rows(self) -> np.ndarray:
-        """Packed rows (one per primitive), float64, shape (k, 12)."""
-        rows = np.asarray(self._shape_rows(), np.float64).reshape(-1, ROW)
-        rows[:, ADHESION] = self.adhesion
-        rows[:, FRICTION_MODEL] = FRICTION_MODELS.index(self.friction_model)
-        rows[:, FRICTION] = self.friction
-        return rows
+        """Packed rows (one per primitive, :mod:`motes.geometry.layout`), float64, shape
+        (k, ROW)."""
+        return stack(
+            pack_row(
+                kind,
+                geometry,
+                inside=inside,
+                friction_model=FRICTION_MODELS.index(self.friction_model),
+                friction=self.friction,
+                adhesion=self.adhesion,
+            )
+            for kind, geometry, inside in self._shapes()
+        )
 
     @abstractmethod
-    def _shape_rows(self) -> list:
-        """This boundary's packed rows before the shared columns are filled."""
+    def _shapes(self) -> list:
+        """This boundary's primitives as (kind, geometry, inside) triples."""
 
 
 class Plane(Boundary):
@@ -82,12 +89,8 @@ class Plane(Boundary):
         self.normal = _validate.unit_vector("normal", normal)
         self.point = _validate.vector("point", point)
 
-    def _shape_rows(self):
-        row = np.zeros(ROW)
-        row[KIND], row[SIGN] = PLANE, 1.0
-        row[A0 : A2 + 1] = self.normal
-        row[C] = float(self.normal @ self.point)
-        return [row]
+    def _shapes(self):
+        return [(Kind.PLANE, [*self.normal, float(self.normal @ self.point)], False)]
 
 
 class Tank(Boundary):
@@ -118,16 +121,19 @@ class Tank(Boundary):
         self.lower = self.lower + offset
         self.upper = self.upper + offset
 
-    def _shape_rows(self):
-        rows = []
+    def _shapes(self):
+        # Five or six half-spaces rather than one inside box: each wall then takes its
+        # own share of a particle's kernel (corners and edges overlap, see
+        # ``_kernels.walls``) and an open tank's walls rise without end.
+        shapes = []
         for axis in range(3):
             for sign, corner in ((1.0, self.lower), (-1.0, self.upper)):
                 if axis == 1 and sign < 0 and not self.closed:
                     continue
                 normal = np.zeros(3)
                 normal[axis] = sign
-                rows.append(Plane(normal, corner)._shape_rows()[0])
-        return rows
+                shapes += Plane(normal, corner)._shapes()
+        return shapes
 
 
 class Box(Boundary):
@@ -148,12 +154,9 @@ class Box(Boundary):
         if np.any(self.half_extents <= 0):
             raise ValueError(f"half_extents must be > 0, got {self.half_extents.tolist()}")
 
-    def _shape_rows(self):
-        row = np.zeros(ROW)
-        row[KIND], row[SIGN] = BOX, 1.0
-        row[A0 : A2 + 1] = self.center
-        row[B0 : B2 + 1] = self.half_extents
-        return [row]
+    def _shapes(self):
+        # An axis-aligned oriented box: the identity's rows are its axes.
+        return [(Kind.BOX, [*self.center, *self.half_extents, *np.eye(3).ravel()], False)]
 
 
 class Sphere(Boundary):
@@ -175,12 +178,8 @@ class Sphere(Boundary):
         self.radius = _validate.positive("radius", radius)
         self.inside = bool(inside)
 
-    def _shape_rows(self):
-        row = np.zeros(ROW)
-        row[KIND], row[SIGN] = SPHERE, (-1.0 if self.inside else 1.0)
-        row[A0 : A2 + 1] = self.center
-        row[C] = self.radius
-        return [row]
+    def _shapes(self):
+        return [(Kind.SPHERE, [*self.center, self.radius], self.inside)]
 
 
 class MeshWall(Boundary):
@@ -215,11 +214,12 @@ class MeshWall(Boundary):
             mesh, thickness=thickness, friction=friction, restitution=restitution
         )
 
-    def _shape_rows(self):
-        return np.zeros((0, ROW))
+    def _shapes(self):
+        # Swept and projected by the rigid world's kernels instead (see above).
+        return []
 
 
 def pack(boundaries) -> np.ndarray:
-    """All boundaries as packed rows, float64, shape (k, 12)."""
+    """All boundaries as packed rows, float64, shape (k, ROW)."""
     rows = [b.rows() for b in boundaries]
     return np.concatenate(rows) if rows else np.zeros((0, ROW))

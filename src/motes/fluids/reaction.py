@@ -26,7 +26,8 @@ import numpy as np
 from numba import prange
 
 from .._jit import block_bounds, block_count, parallel_kernel
-from ._kernels import boundary_function, signed_distance
+from ..geometry.distance import row_signed_distance
+from ._kernels import boundary_function
 from .boundaries import Boundary
 from .sph import wall_share
 
@@ -36,7 +37,7 @@ def _free_share(rows, x, y, z, h, spacing, scale):
     """``Q``, the part of the kernel no wall takes (as ``_kernels.walls``)."""
     free = 1.0
     for b in range(rows.shape[0]):
-        d = signed_distance(rows, b, x, y, z)[0]
+        d = row_signed_distance(rows, b, x, y, z, 1.0)[0]
         if d < h:
             free *= 1.0 - wall_share(d, spacing, h, scale)[0]
     return free
@@ -53,7 +54,7 @@ def wall_gradients(px, py, pz, rows, chosen, h, spacing, scale, out):
             x, y, z = np.float64(px[i]), np.float64(py[i]), np.float64(pz[i])
             free = -1.0
             for k in range(chosen.shape[0]):
-                d, nx, ny, nz = signed_distance(rows, chosen[k], x, y, z)
+                d, nx, ny, nz = row_signed_distance(rows, chosen[k], x, y, z, 1.0)
                 gx = gy = gz = 0.0
                 if d < h:
                     if free < 0.0:
@@ -74,7 +75,7 @@ def wall_pushes(px, py, pz, rows, chosen, radius, out):
         for i in range(start, stop):
             x, y, z = np.float64(px[i]), np.float64(py[i]), np.float64(pz[i])
             for k in range(chosen.shape[0]):
-                d, nx, ny, nz = signed_distance(rows, chosen[k], x, y, z)
+                d, nx, ny, nz = row_signed_distance(rows, chosen[k], x, y, z, 1.0)
                 push = max(radius - d, 0.0)
                 out[k, 0, i], out[k, 1, i], out[k, 2, i] = push * nx, push * ny, push * nz
 

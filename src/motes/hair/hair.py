@@ -25,6 +25,7 @@ from ..cloth.kernels import collide_kernel
 from ..cloth.strain import StrainLimiter
 from ..collide.colliders import Collider, Sphere, pack
 from ..forces.apply import check_force, force_state, split_implicit
+from ..geometry.layout import grown
 from ..integrate.implicit import SERIAL_BELOW, ConstraintFilter, ImplicitEuler, SolveReport
 from ..state import Field, ParticleState
 from .bending import StencilSprings, angle_bending
@@ -322,21 +323,10 @@ class Hair:
         scalp = Sphere(
             c, self.head.radius + self.thickness, restitution=0.0, friction=self.head.friction
         )
-        table, structure = pack([scalp, *self.colliders])
-        for row, collider in enumerate(self.colliders, start=1):
-            if structure[row][0] == 0:
-                table[row, 5] += self.thickness
-            else:
-                stop = 6 if structure[row][0] == 1 else 8
-                table[row, 5:stop] += -self.thickness if collider.inside else self.thickness
-        collide_kernel(
-            *self.position,
-            *self.velocity,
-            self._free,
-            np.asarray(structure, dtype=np.int64).reshape(-1, 4),
-            table,
-            h,
-        )
+        # The scalp sphere already includes the thickness; the other colliders grow by it.
+        table, _ = pack([scalp, *self.colliders])
+        table[1:] = grown(table[1:], self.thickness)
+        collide_kernel(*self.position, *self.velocity, self._free, table, h)
         self.time += h
 
     def particle_state(self) -> ParticleState:

@@ -24,7 +24,8 @@ import numpy as np
 from numba import prange
 
 from .._jit import block_bounds, block_count, device, parallel_kernel
-from ..collide.geometry import penetration, respond
+from ..collide.response import respond
+from ..geometry.distance import signed_distance
 
 
 class Scheme(IntEnum):
@@ -136,7 +137,9 @@ def step_kernel(
                 killed = False
                 last_hit = -1
                 for c in range(n_colliders):
-                    depth, nx, ny, nz = penetration(kinds[c], insides[c], px, py, pz, table, c, one)
+                    dist, nx, ny, nz = signed_distance(
+                        kinds[c], insides[c], table, c, px, py, pz, one
+                    )
                     px, py, pz, vx, vy, vz, hit, kill = respond(
                         responses[c],
                         frictions[c],
@@ -146,7 +149,7 @@ def step_kernel(
                         vx,
                         vy,
                         vz,
-                        depth,
+                        -dist,
                         nx,
                         ny,
                         nz,

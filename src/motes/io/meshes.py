@@ -1,6 +1,6 @@
 """Triangle meshes from and to Wavefront OBJ and Stanford PLY files.
 
-Readers return a :class:`~motes.render.mesh.TriangleMesh`; polygons with more than three
+Readers return a :class:`~motes.geometry.TriangleMesh`; polygons with more than three
 corners are split into a fan of triangles. OBJ: ``v`` and ``f`` lines (``f 1/2/3``
 index forms and negative, relative indices included); everything else (normals, texture
 coordinates, groups, materials) is ignored. PLY: ``ascii`` and
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..render.mesh import TriangleMesh
+from ..geometry.mesh import TriangleMesh
 
 
 class MeshFormatError(ValueError):

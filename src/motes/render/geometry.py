@@ -23,10 +23,10 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import _validate as check
+from ..geometry.mesh import TriangleMesh
 from ._raster import CORNER, LINE_SIZE, draw_tiles, project_vertices, setup_lines, setup_triangles
 from .camera import Camera
 from .frame import Frame
-from .mesh import TriangleMesh
 from .shading import SURFACE_SIZE, Material, pack_lights, rgb, surface_row
 from .tiles import bin_boxes
 

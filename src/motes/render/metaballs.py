@@ -53,8 +53,8 @@ from .._jit import (
     serial_kernel,
     threads_for,
 )
+from ..geometry.mesh import TriangleMesh
 from .marching_cubes import _marching_cubes, spread_order
-from .mesh import TriangleMesh
 
 #: Default largest grid [nodes] :meth:`Metaballs.field` and :meth:`Metaballs.mesh` build:
 #: 256³. Meshing takes about 19 B per node (the float32 field, three int32 edge indices,

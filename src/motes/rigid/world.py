@@ -38,6 +38,7 @@ from ..collide.spheres import project_spheres, restitute_spheres
 from ..collide.swept import sweep_contacts
 from ..constrain import ConstraintBuilder, Pins
 from ..forces.apply import add_forces, check_force
+from ..geometry.layout import RESTITUTION, SWEPT
 from ..state import Field, ParticleState
 from .kernels import verlet
 from .shapes import BodyShape
@@ -491,12 +492,12 @@ class World:
             "rotation": None,
             "solid": any(plane_sizes) and len(bodies) > 1,
             "table": table,
-            "swept": bool(table[:, 3].any()) if len(table) else False,
+            "swept": bool(table[:, SWEPT].any()) if len(table) else False,
             "mesh": (tri, cell_start, cell_tris),
             "hits": np.zeros(n, dtype=np.int64),
             "spheres": members,
             "sphere_restitution": sphere_e,
-            "bounce": bool(len(table) and table[:, 2].any()) or bool(sphere_e.any()),
+            "bounce": bool(len(table) and table[:, RESTITUTION].any()) or bool(sphere_e.any()),
             "before": np.zeros((3, n)),
         }
         # Body rotations warm-start the compiled refinement (see collide.bodies).

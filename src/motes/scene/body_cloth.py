@@ -100,7 +100,7 @@ class ClothBody(Body):
         self._last_good = self._start + np.clip(offset, -self.blowup, self.blowup)
 
     def drawables(self) -> list:
-        from ..render.mesh import TriangleMesh
+        from ..geometry.mesh import TriangleMesh
 
         mesh = TriangleMesh(self._last_good.T, self.cloth.faces)
         if self.diverged_at is not None:

@@ -1,4 +1,5 @@
-"""Triangle meshes: the one geometry type the renderer rasterises and metaballs produce."""
+"""Triangle meshes: the geometry type the renderer rasterises, metaballs produce, mesh files
+hold and cloth, rigid worlds and fluids collide with."""
 
 from __future__ import annotations
 
