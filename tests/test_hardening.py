@@ -182,3 +182,24 @@ def test_unwritable_outputs_are_refused_before_simulating(args, message, tmp_pat
         pytest.skip("root writes anywhere")
     assert run_cli("run", "fire", *args, *SMALL) == 2
     assert message in one_error_line(capsys)
+
+
+def test_progress_says_the_first_frame_may_compile_and_estimates_from_the_steady_rate(
+    monkeypatch,
+):
+    import io
+
+    from motes.cli import progress as progress_module
+
+    clock = iter([0.0, 30.0, 31.0, 32.0])  # a 30 s first frame, then 1 s per frame
+    monkeypatch.setattr(progress_module.time, "perf_counter", lambda: next(clock))
+    stream = io.StringIO()
+    bar = progress_module.Progress(10, label="fire", stream=stream)
+    bar.begin()
+    assert "first frame (kernels compile on a first run" in stream.getvalue()
+    bar.update(1)
+    assert "? s left" in stream.getvalue().splitlines()[-1]
+    bar.update(2)
+    bar.update(3)
+    # Two steady frames in 2 s: 7 left take 7 s (not the 70 s the first frame implies).
+    assert stream.getvalue().splitlines()[-1].endswith("7 s left")

@@ -291,6 +291,7 @@ def _run(args) -> int:
         _clear_frames(output, overwrite=args.overwrite)
 
     progress = Progress(frames, label=scene.name, enabled=not args.quiet)
+    progress.begin()
     start = time.perf_counter()
     done = 0
     interrupted = False

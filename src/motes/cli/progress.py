@@ -33,12 +33,25 @@ class Progress:
         self.start = time.perf_counter()
         self.last = -1.0
         self.done = 0
+        self.first: float | None = None  # when the first frame was done
         self.closed = False
         self.redraw = bool(getattr(self.stream, "isatty", lambda: False)())
+
+    def begin(self) -> None:
+        """Say that the first frame is on its way: on a first run it takes the time the
+        kernels need to compile (tens of seconds), with nothing else to show."""
+        if self.enabled and self.total:
+            self.stream.write(
+                f"{self.label}: first frame (kernels compile on a first run and are "
+                "cached for the next)...\n"
+            )
+            self.stream.flush()
 
     def update(self, done: int) -> None:
         self.done = done
         now = time.perf_counter()
+        if done == 1:
+            self.first = now
         if not self.enabled:
             return
         if self.redraw and (now - self.last >= self.interval or done == self.total):
@@ -51,9 +64,14 @@ class Progress:
             self.stream.flush()
 
     def line(self, now: float | None = None) -> str:
-        elapsed = (now or time.perf_counter()) - self.start
+        now = now or time.perf_counter()
+        elapsed = now - self.start
         fps = self.done / elapsed if elapsed > 0 else 0.0
-        left = (self.total - self.done) / fps if fps > 0 else float("inf")
+        # The time left comes from the frames after the first: the first one carries
+        # the kernels' compilation and would make the estimate hours long.
+        steady = now - self.first if self.first is not None else 0.0
+        rate = (self.done - 1) / steady if self.done >= 2 and steady > 0 else 0.0
+        left = (self.total - self.done) / rate if rate > 0 else float("inf")
         filled = int(self.width * self.done / max(self.total, 1))
         bar = "#" * filled + "." * (self.width - filled)
         eta = f"{left:5.0f} s left" if left != float("inf") else "     ? s left"
