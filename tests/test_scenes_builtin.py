@@ -25,7 +25,18 @@ def check_common(scene):
     return image
 
 
-@pytest.mark.parametrize("name", sorted(builtin_scenes()))
+# The two scenes of kinds acting on each other are the costliest to compile and run; they
+# have scene tests of their own (test_couple_scenes.py, and the slow tier's floating).
+SLOW_SCENES = {"floating", "rain_on_flag"}
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(name, marks=pytest.mark.slow) if name in SLOW_SCENES else name
+        for name in sorted(builtin_scenes())
+    ],
+)
 def test_builtin_scene_runs_and_renders(name):
     scene = load_scene(name)
     advance(scene, 1.0)

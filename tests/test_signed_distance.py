@@ -110,7 +110,7 @@ def test_mesh_rows_match_a_brute_force_twin():
     table, tri, start, cells = pack_rigid([collider], [Detection.POSTERIORI])
     assert table.shape == (1, ROW) and table[0, KIND] == Kind.MESH
     rng = np.random.default_rng(5)
-    p = rng.uniform(-0.8, 0.8, (200, 3))
+    p = rng.uniform(-0.8, 0.8, (60, 3))
     for x in p:
         d, *n = collider_distance(table, 0, tri, start, cells, *x, *x, 2.0)
         want_d, want_n = naive_constraints.signed_distance(collider, x, x)
@@ -161,6 +161,8 @@ def fluid_projection(boundary, p):
     return x.T
 
 
+# Slow tier: each case compiles a fused particle step of its own (15 s cold apiece).
+@pytest.mark.slow
 @pytest.mark.parametrize("shape", list(PAIRS))
 def test_fluid_rigid_and_particle_paths_agree(shape):
     collider, boundary = PAIRS[shape]
@@ -188,6 +190,7 @@ def test_fluid_rigid_and_particle_paths_agree(shape):
         assert_allclose(got, moved[0], atol=1e-12)
 
 
+@pytest.mark.slow
 def test_inside_sphere_agrees_between_the_particle_step_and_the_fluid():
     collider = Sphere((0.0, 0.1, 0.0), 0.8, inside=True)
     boundary = fluids.Sphere((0.0, 0.1, 0.0), 0.8, inside=True)
