@@ -25,9 +25,9 @@ def check_common(scene):
     return image
 
 
-# The two scenes of kinds acting on each other are the costliest to compile and run; they
-# have scene tests of their own (test_couple_scenes.py, and the slow tier's floating).
-SLOW_SCENES = {"floating", "rain_on_flag"}
+# The costliest scenes to compile and run (30-100 s each from an empty kernel cache);
+# each keeps a scene test of its own in the default run or the slow tier.
+SLOW_SCENES = {"floating", "rain_on_flag", "explosion", "box_tower"}
 
 
 @pytest.mark.parametrize(
