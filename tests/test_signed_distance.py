@@ -138,7 +138,21 @@ def particle_step(collider, p):
     hits = np.zeros(n, dtype=np.int32)
     life = np.full(n, 10.0)
     vel = np.zeros((3, n))
-    kernel(n, pos, vel, np.zeros(n), life, np.ones(1), np.zeros((3, 1)), params, table, keep, hits)
+    no_meshes = pack_rigid([])[1:]
+    kernel(
+        n,
+        pos,
+        vel,
+        np.zeros(n),
+        life,
+        np.ones(1),
+        np.zeros((3, 1)),
+        params,
+        table,
+        *no_meshes,
+        keep,
+        hits,
+    )
     return pos.T
 
 

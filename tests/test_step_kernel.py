@@ -6,7 +6,11 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 import naive
 from motes.collide.colliders import Box, Plane, Sphere, pack
+from motes.collide.contact import pack as pack_all
 from motes.integrate.kernels import ONE, PARAM_COUNT, Scheme, step_kernel
+
+#: The triangle-mesh arrays of a table without meshes.
+NO_MESHES = pack_all([])[1:]
 
 SCHEMES = {
     "explicit": Scheme.EXPLICIT_EULER,
@@ -69,6 +73,7 @@ def run_kernel(scheme, colliders, state, *, with_force, with_mass, dt=0.05, damp
         np.ascontiguousarray(force.T),
         params,
         table,
+        *NO_MESHES,
         keep,
         hits,
     )
@@ -151,6 +156,7 @@ def test_float32_kernel_close_to_float64(rng):
         pos,
         params,
         table.astype(np.float32),
+        *NO_MESHES,
         keep,
         np.empty(1, np.int32),
     )

@@ -25,12 +25,13 @@ from . import _validate as check
 from ._jit import threads_for
 from ._tracked import fingerprint
 from .collide.between import KindContact
-from .collide.colliders import Collider, pack
+from .collide.colliders import Collider
+from .collide.contact import pack as pack_colliders
 from .emit.emitter import Emitter
 from .forces.base import FieldForce, FieldTerms, Force
 from .integrate import Integrator
 from .integrate.implicit import ImplicitEuler, advance_store
-from .integrate.kernels import Scheme, acceleration_kernel, step_kernel
+from .integrate.kernels import GAP, Scheme, acceleration_kernel, step_kernel
 from .integrate.multistage import rk4, velocity_verlet
 from .life.curves import _OverLife
 from .life.events import KINDS, gather
@@ -47,6 +48,8 @@ class _StepSetup:
     kernel: object
     params: np.ndarray
     table: np.ndarray
+    #: Triangle meshes' triangles and grid lists (:func:`motes.collide.contact.pack`).
+    meshes: tuple[np.ndarray, np.ndarray, np.ndarray]
     quadratic: bool
     track_hits: bool
 
@@ -251,9 +254,10 @@ class ParticleSystem:
         for force in self.field_forces:
             terms.add(force.terms())
         values = terms.packed()
-        values += [dt, self.verlet_damping, 1.0]
+        values += [dt, self.verlet_damping, 1.0, GAP]
         params = np.array(values, dtype=self.store.dtype)
-        table, structure = pack(self.colliders)
+        table, *meshes = pack_colliders(self.colliders)
+        structure = tuple(c.structure for c in self.colliders)
         quadratic = terms.quadratic_drag > 0
         kernel = step_kernel(
             int(scheme),
@@ -264,7 +268,13 @@ class ParticleSystem:
             track_hits,
         )
         self._setup_cache = _StepSetup(
-            key, kernel, params, table.astype(self.store.dtype), quadratic, track_hits
+            key,
+            kernel,
+            params,
+            table.astype(self.store.dtype),
+            tuple(meshes),
+            quadratic,
+            track_hits,
         )
         return self._setup_cache
 
@@ -326,6 +336,7 @@ class ParticleSystem:
             force,
             setup.params,
             setup.table,
+            *setup.meshes,
             store.keep,
             hits,
         )

@@ -1,10 +1,9 @@
-"""Collisions: planes, spheres and boxes for particle systems (detected after the move);
-for rigid worlds also capsules and triangle meshes, swept (a-priori) detection and body
-against body contacts."""
+"""Collisions: planes, spheres, boxes, capsules and triangle meshes that every kind
+collides with, found after the move or swept along each step's path (a priori); for
+rigid worlds also body against body contacts."""
 
 from .capsule import Capsule
-from .colliders import Box, Collider, Friction, Kind, Plane, Response, Sphere
-from .contact import Detection
+from .colliders import Box, Collider, Detection, Friction, Kind, Plane, Response, Sphere
 from .mesh import TriangleMeshCollider
 
 __all__ = [

@@ -12,8 +12,8 @@ from .colliders import Collider
 class Capsule(Collider):
     """Solid capsule: every point within ``radius`` of the segment from ``a`` to ``b``.
 
-    Collides with particles of a :class:`motes.rigid.World` (the fused step of a
-    :class:`~motes.ParticleSystem` handles planes, spheres and boxes only).
+    Collides with particles of every kind; swept (``detection="priori"``) only as a
+    solid (not with ``inside=True``).
 
     Parameters
     ----------
@@ -33,13 +33,10 @@ class Capsule(Collider):
         self.a = check.vector("a", a)
         self.b = check.vector("b", b)
         self.radius = check.positive("radius", radius)
-
-    @property
-    def structure(self):
-        raise TypeError(
-            "Capsule collides with motes.rigid.World particles only; a ParticleSystem "
-            "supports Plane, Sphere and Box colliders"
-        )
+        if self.inside and self.swept:
+            raise ValueError(
+                "detection 'priori' needs a solid capsule: with inside=True use 'posteriori'"
+            )
 
     def _geometry(self):
         return [*self.a, *self.b, self.radius]

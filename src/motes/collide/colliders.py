@@ -8,7 +8,7 @@ region is pushed out along the collider's normal, then its velocity responds (se
 
 from __future__ import annotations
 
-from enum import IntEnum
+from enum import IntEnum, StrEnum
 
 import numpy as np
 
@@ -16,7 +16,17 @@ from .. import _validate as check
 from .._tracked import Tracked
 from ..geometry.layout import Kind, pack_row, stack
 
-__all__ = ["Box", "Collider", "Friction", "Kind", "Plane", "Response", "Sphere", "pack"]
+__all__ = [
+    "Box",
+    "Collider",
+    "Detection",
+    "Friction",
+    "Kind",
+    "Plane",
+    "Response",
+    "Sphere",
+    "pack",
+]
 
 
 class Response(IntEnum):
@@ -39,6 +49,18 @@ class Friction(IntEnum):
     DEPTH = 1
 
 
+class Detection(StrEnum):
+    """When collisions with a collider are found."""
+
+    #: After the move: penetrating particles are pushed out (a fast particle may pass
+    #: through a thin shape between two steps).
+    POSTERIORI = "posteriori"
+    #: Before the move as well: each particle's path over the step is swept against the
+    #: shape (:mod:`motes.geometry.sweep`), so a fast particle cannot pass through a thin
+    #: wall and a bounce happens at the time of impact within the step.
+    PRIORI = "priori"
+
+
 class Collider(Tracked):
     """Common response parameters.
 
@@ -54,9 +76,15 @@ class Collider(Tracked):
         ``"bounce"``, ``"stick"``, ``"kill"`` or ``"event"``.
     inside : bool
         Keep particles inside the shape instead of outside it.
+    detection : Detection or str
+        ``"posteriori"`` (found after the move) or ``"priori"`` (the path over each
+        step is swept against the shape as well).
     """
 
     kind: Kind
+    #: Detection when none is given (triangle meshes: swept, as a thin shell cannot be
+    #: found after the move).
+    default_detection = Detection.POSTERIORI
 
     def __init__(
         self,
@@ -66,6 +94,7 @@ class Collider(Tracked):
         friction_model: Friction | str = Friction.SCALE,
         response: Response | str = Response.BOUNCE,
         inside: bool = False,
+        detection: Detection | str | None = None,
     ):
         self.restitution = check.unit_interval("restitution", restitution)
         self.friction_model = _enum("friction_model", friction_model, Friction)
@@ -77,11 +106,28 @@ class Collider(Tracked):
         if not isinstance(inside, bool):
             raise TypeError(f"inside must be True or False, got {inside!r}")
         self.inside = inside
+        self.detection = (
+            self.default_detection
+            if detection is None
+            else _enum("detection", detection, Detection)
+        )
 
     @property
-    def structure(self) -> tuple[int, int, int, int]:
-        """(kind, inside, response, friction_model): what the compiled kernel specialises on."""
-        return (int(self.kind), int(self.inside), int(self.response), int(self.friction_model))
+    def swept(self) -> bool:
+        """Whether paths are swept against this collider (a-priori detection)."""
+        return self.detection == Detection.PRIORI
+
+    @property
+    def structure(self) -> tuple[int, int, int, int, int]:
+        """(kind, inside, response, friction_model, swept): what the compiled kernel
+        specialises on."""
+        return (
+            int(self.kind),
+            int(self.inside),
+            int(self.response),
+            int(self.friction_model),
+            int(self.swept),
+        )
 
     def _geometry(self) -> list[float]:
         raise TypeError(f"{type(self).__name__} is abstract")
@@ -97,6 +143,7 @@ class Collider(Tracked):
             friction_model=int(self.friction_model),
             restitution=self.restitution,
             friction=self.friction,
+            swept=self.swept,
         )
 
 

@@ -14,8 +14,6 @@ one loses ``μ p`` of its tangential travel (kinetic friction). Detection before
 
 from __future__ import annotations
 
-from enum import StrEnum
-
 import numba
 import numpy as np
 
@@ -23,25 +21,13 @@ from .._jit import block_bounds, block_count, parallel_kernel
 from ..geometry.distance import collider_distance
 from ..geometry.layout import FRICTION, SWEPT, G, stack
 from .capsule import Capsule
-from .colliders import Box, Collider, Plane, Response, Sphere
+from .colliders import Box, Collider, Detection, Plane, Response, Sphere
 from .mesh import TriangleMeshCollider
 
 
-class Detection(StrEnum):
-    """When collisions with a collider are found."""
-
-    #: After the move: penetrating particles are projected out (misses fast ones).
-    POSTERIORI = "posteriori"
-    #: Before the move as well: the path x -> x' is swept against the shape (planes,
-    #: boxes, triangle meshes), so a fast particle cannot pass through a thin wall.
-    PRIORI = "priori"
-
-
-_SWEPT_KINDS = (Plane, Box, TriangleMeshCollider)
-
-
-def check_collider(collider, detection) -> Detection:
-    """Validate a collider for a rigid world; return its detection mode."""
+def check_collider(collider, detection=None) -> Detection:
+    """Validate a collider for a rigid world; return its detection mode (``None``: the
+    collider's own)."""
     if not isinstance(collider, Collider):
         raise TypeError(
             f"collider must be a Plane, Sphere, Box, Capsule or TriangleMeshCollider, "
@@ -49,20 +35,18 @@ def check_collider(collider, detection) -> Detection:
         )
     if collider.response != Response.BOUNCE or collider.inside:
         raise ValueError("rigid worlds support solid colliders with response 'bounce' only")
+    if detection is None:
+        return collider.detection
     if isinstance(detection, str) and detection in Detection._value2member_map_:
         detection = Detection(detection)
     if not isinstance(detection, Detection):
         raise ValueError(f"detection must be 'posteriori' or 'priori', got {detection!r}")
-    if detection == Detection.PRIORI and not isinstance(collider, _SWEPT_KINDS):
-        raise ValueError(
-            "detection 'priori' is available for Plane, Box and TriangleMeshCollider colliders"
-        )
     return detection
 
 
-def pack(colliders, detections):
+def pack(colliders, detections=None):
     """Rows ``(k, ROW)`` float64 (:mod:`motes.geometry.layout`) and the concatenated
-    mesh data.
+    mesh data; ``detections`` (one per collider) overrides the colliders' own.
 
     Returns ``table, triangles (t, 9), cell_start, cell_triangles``.
     """
@@ -71,6 +55,9 @@ def pack(colliders, detections):
     starts = [np.zeros(1, dtype=np.int64)]
     lists = [np.zeros(0, dtype=np.int64)]
     tri_offset = cell_offset = 0
+    colliders = list(colliders)
+    if detections is None:
+        detections = [c.detection for c in colliders]
     for col, det in zip(colliders, detections, strict=True):
         if not isinstance(col, (Plane, Sphere, Box, Capsule, TriangleMeshCollider)):
             raise TypeError(f"unsupported collider {type(col).__name__}")

@@ -15,14 +15,18 @@ import numpy as np
 from .. import _validate as check
 from ..geometry.layout import Kind
 from ..geometry.mesh import TriangleMesh
-from .colliders import Collider
+from .colliders import Collider, Detection
 
 #: Meshes with at most this many triangles are tested brute force (one cell).
 GRID_ABOVE = 32
 
 
 class TriangleMeshCollider(Collider):
-    """A triangle mesh as a thin shell that particles of a rigid world collide with.
+    """A triangle mesh as a thin shell that particles of every kind collide with.
+
+    A shell can be crossed within one step, so paths are swept against it by default
+    (``detection="priori"``); with ``"posteriori"`` only particles found within
+    ``thickness`` after the move are pushed out.
 
     Parameters
     ----------
@@ -37,6 +41,7 @@ class TriangleMeshCollider(Collider):
     """
 
     kind = Kind.MESH
+    default_detection = Detection.PRIORI
 
     def __init__(self, mesh, *, thickness: float = 0.0, cell_size: float | None = None, **response):
         response.setdefault("friction_model", "depth")
@@ -47,6 +52,8 @@ class TriangleMeshCollider(Collider):
             mesh = TriangleMesh(*mesh)
         if len(mesh) == 0:
             raise ValueError("mesh must have at least one triangle")
+        if self.inside:
+            raise ValueError("inside=True has no meaning for a triangle-mesh shell")
         self.mesh = mesh
         self.thickness = check.non_negative("thickness", thickness)
         self.triangles = mesh.vertices.astype(np.float64)[mesh.faces].reshape(-1, 9)
@@ -58,10 +65,6 @@ class TriangleMeshCollider(Collider):
         self.origin, self.cell_size, self.dims, self.cell_start, self.cell_triangles = _grid(
             lo, hi, cell_size
         )
-
-    @property
-    def structure(self):
-        raise TypeError("TriangleMeshCollider collides with motes.rigid.World particles only")
 
     def _geometry(self):
         # The index of the first cell is the mesh's place in a table's concatenated

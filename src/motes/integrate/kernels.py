@@ -11,8 +11,9 @@ closure contents, so each structure compiles once per machine.
 
 ``params`` (store dtype) holds, in order: gravity (3) [m/s^2], linear drag k [kg/s],
 sum of k·wind (3) [N], quadratic drag c [kg/m], quadratic wind (3) [m/s], dt [s],
-Verlet damping [1], then the constant 1 (kernels take constants from here: a Python
-literal would promote float32 arithmetic to float64).
+Verlet damping [1], the constant 1 (kernels take constants from here: a Python
+literal would promote float32 arithmetic to float64), then the gap [m] a swept
+collider leaves between a particle it stops and its surface (:data:`GAP`).
 """
 
 from __future__ import annotations
@@ -24,8 +25,20 @@ import numpy as np
 from numba import prange
 
 from .._jit import block_bounds, block_count, device, parallel_kernel
+from ..collide.colliders import Friction, Response
 from ..collide.response import respond
-from ..geometry.distance import signed_distance
+from ..geometry.distance import mesh_distance, signed_distance
+from ..geometry.layout import FRICTION, RESTITUTION, Kind
+from ..geometry.sweep import first_hit, mesh_first_hit
+
+_MESH = int(Kind.MESH)
+_EVENT = int(Response.EVENT)
+_KILL = int(Response.KILL)
+_STICK = int(Response.STICK)
+_DEPTH = int(Friction.DEPTH)
+#: Gap left between a particle stopped by a swept collider and the surface [m] (keeps
+#: it on the free side after round-off; ``params[GAP_AT]``).
+GAP = 1e-6
 
 
 class Scheme(IntEnum):
@@ -37,8 +50,9 @@ class Scheme(IntEnum):
     VERLET = 3
 
 
-PARAM_COUNT = 14
+PARAM_COUNT = 15
 ONE = 13
+GAP_AT = 14
 
 
 @device
@@ -72,12 +86,15 @@ def step_kernel(
 ):
     """Compile (or fetch) the fused step kernel for one structure.
 
-    The returned kernel has the signature
-    ``kernel(n, pos, vel, age, life, inv_mass, force, params, table, keep, hits) -> dead``
-    with vectors ``(3, capacity)``, scalars ``(capacity,)``; unused arrays may be any
-    array of the right rank. ``keep[i]`` is written False for particles that die (age
-    past lifetime, or a KILL collider); ``hits[i]`` gets the index of the last collider
-    hit, or -1, when ``track_hits``. Returns the number of particles that die.
+    ``colliders`` holds one ``(kind, inside, response, friction_model, swept)`` tuple
+    per collider (:attr:`motes.collide.Collider.structure`). The returned kernel has the
+    signature ``kernel(n, pos, vel, age, life, inv_mass, force, params, table, tri,
+    cell_start, cell_tris, keep, hits) -> dead`` with vectors ``(3, capacity)``, scalars
+    ``(capacity,)``, and the triangle meshes' data as
+    :func:`motes.collide.contact.pack` concatenates it; unused arrays may be any array of
+    the right rank. ``keep[i]`` is written False for particles that die (age past
+    lifetime, or a KILL collider); ``hits[i]`` gets the index of the last collider hit,
+    or -1, when ``track_hits``. Returns the number of particles that die.
     """
     scheme = int(scheme)
     n_colliders = len(colliders)
@@ -85,14 +102,193 @@ def step_kernel(
     insides = tuple(int(c[1]) for c in colliders) or (0,)
     responses = tuple(int(c[2]) for c in colliders) or (0,)
     frictions = tuple(int(c[3]) for c in colliders) or (0,)
+    sweeps = tuple(int(c[4]) for c in colliders) or (0,)
     explicit = scheme == Scheme.EXPLICIT_EULER
     semi_implicit = scheme == Scheme.SEMI_IMPLICIT_EULER
     verlet = scheme == Scheme.VERLET
+    moving = explicit or semi_implicit or verlet
+    # Multi-stage schemes move the particles before the kernel: no path to sweep.
+    any_swept = moving and any(sweeps)
+    any_mesh = _MESH in kinds[:n_colliders]
+
+    @device
+    def sweep(
+        x0,
+        y0,
+        z0,
+        px,
+        py,
+        pz,
+        vx,
+        vy,
+        vz,
+        ax,
+        ay,
+        az,
+        params,
+        table,
+        tri,
+        cell_start,
+        cell_tris,
+        dt,
+        one,
+    ):
+        """The step's path against the swept colliders: at the earliest entry the
+        particle responds at that time and moves on for the rest of the step.
+
+        Returns position, velocity, the collider hit (-1: none) and whether it dies."""
+        zero = one - one
+        half = one / (one + one)
+        dx = px - x0
+        dy = py - y0
+        dz = pz - z0
+        # The path under the constant acceleration a: x(f) = x0 + (d - b) f + b f².
+        bend = half * dt * dt
+        bx = ax * bend
+        by = ay * bend
+        bz = az * bend
+        best = one + one
+        hit = -1
+        nx = ny = nz = off = zero
+        for c in range(n_colliders):
+            if sweeps[c]:
+                if any_mesh:
+                    if kinds[c] == _MESH:
+                        f, mx, my, mz, mo = mesh_first_hit(
+                            table[c],
+                            tri,
+                            cell_start,
+                            cell_tris,
+                            float(x0),
+                            float(y0),
+                            float(z0),
+                            float(dx),
+                            float(dy),
+                            float(dz),
+                            0.0,
+                        )
+                    else:
+                        f, mx, my, mz = first_hit(
+                            kinds[c],
+                            insides[c],
+                            table,
+                            c,
+                            x0,
+                            y0,
+                            z0,
+                            dx,
+                            dy,
+                            dz,
+                            bx,
+                            by,
+                            bz,
+                            zero,
+                            one,
+                        )
+                        mo = zero
+                else:
+                    f, mx, my, mz = first_hit(
+                        kinds[c],
+                        insides[c],
+                        table,
+                        c,
+                        x0,
+                        y0,
+                        z0,
+                        dx,
+                        dy,
+                        dz,
+                        bx,
+                        by,
+                        bz,
+                        zero,
+                        one,
+                    )
+                    mo = zero
+                if f < best:
+                    best, hit, nx, ny, nz, off = f, c, mx, my, mz, mo
+        if hit < 0:
+            return px, py, pz, vx, vy, vz, -1, False
+        response = responses[hit]
+        if response == _EVENT:
+            return px, py, pz, vx, vy, vz, hit, False
+        # Entry point on the path, a gap (and a mesh shell's stand-off) off the surface.
+        stand = off + params[GAP_AT]
+        hx = x0 + (dx - bx) * best + bx * best * best + stand * nx
+        hy = y0 + (dy - by) * best + by * best * best + stand * ny
+        hz = z0 + (dz - bz) * best + bz * best * best + stand * nz
+        if response == _KILL:
+            return hx, hy, hz, vx, vy, vz, hit, True
+        if response == _STICK:
+            return hx, hy, hz, zero, zero, zero, hit, False
+        # Velocity at the entry: the path's start velocity (d - b)/dt plus a t.
+        t = best * dt
+        wx = (dx - bx) / dt + ax * t
+        wy = (dy - by) / dt + ay * t
+        wz = (dz - bz) / dt + az * t
+        wn = wx * nx + wy * ny + wz * nz
+        tx = wx - wn * nx
+        ty = wy - wn * ny
+        tz = wz - wn * nz
+        e = table[hit, RESTITUTION]
+        mu = table[hit, FRICTION]
+        wn = min(wn, zero)
+        if frictions[hit] == _DEPTH:
+            # Coulomb: the tangential speed drops by mu times the normal speed change.
+            vt = np.sqrt(tx * tx + ty * ty + tz * tz)
+            scale = max(vt + mu * (one + e) * wn, zero) / (vt + (vt == zero) * one)
+        else:
+            scale = one - mu
+        ux = tx * scale - e * wn * nx
+        uy = ty * scale - e * wn * ny
+        uz = tz * scale - e * wn * nz
+        # The rest of the step, on the new parabola from the entry point.
+        rest = dt - t
+        px = hx + ux * rest + half * ax * rest * rest
+        py = hy + uy * rest + half * ay * rest * rest
+        pz = hz + uz * rest + half * az * rest * rest
+        # The stored velocity is the scheme's own: the mean velocity over the step just
+        # ended (semi-implicit Euler, Verlet) or over the next one (explicit Euler), so
+        # the next step continues on the same parabola.
+        lag = rest + half * dt if explicit else rest - half * dt
+        vx = ux + ax * lag
+        vy = uy + ay * lag
+        vz = uz + az * lag
+        # A slow particle pulled back within the same step (coming to rest) stays on the
+        # contact's tangent plane rather than crossing a shell no later test would find.
+        back = min((px - hx) * nx + (py - hy) * ny + (pz - hz) * nz, zero)
+        vn = min(vx * nx + vy * ny + vz * nz, zero)
+        return (
+            px - back * nx,
+            py - back * ny,
+            pz - back * nz,
+            vx - vn * nx,
+            vy - vn * ny,
+            vz - vn * nz,
+            hit,
+            False,
+        )
 
     @parallel_kernel
-    def kernel(n, pos, vel, age, life, inv_mass, force, params, table, keep, hits):
+    def kernel(
+        n,
+        pos,
+        vel,
+        age,
+        life,
+        inv_mass,
+        force,
+        params,
+        table,
+        tri,
+        cell_start,
+        cell_tris,
+        keep,
+        hits,
+    ):
         dt = params[11]
         one = params[ONE]
+        zero = one - one
         retain = one - params[12]
         dead = 0
         for block in prange(block_count(n)):
@@ -104,8 +300,12 @@ def step_kernel(
                 vx = vel[0, i]
                 vy = vel[1, i]
                 vz = vel[2, i]
+                x0 = px
+                y0 = py
+                z0 = pz
+                ax = ay = az = zero
                 w = inv_mass[i] if has_inv_mass else one
-                if explicit or semi_implicit or verlet:
+                if moving:
                     ax, ay, az = field_acceleration(vx, vy, vz, w, params, quadratic)
                     if has_force:
                         ax += w * force[0, i]
@@ -136,10 +336,55 @@ def step_kernel(
                     pz += vz * dt
                 killed = False
                 last_hit = -1
-                for c in range(n_colliders):
-                    dist, nx, ny, nz = signed_distance(
-                        kinds[c], insides[c], table, c, px, py, pz, one
+                if any_swept:
+                    px, py, pz, vx, vy, vz, swept_hit, swept_kill = sweep(
+                        x0,
+                        y0,
+                        z0,
+                        px,
+                        py,
+                        pz,
+                        vx,
+                        vy,
+                        vz,
+                        ax,
+                        ay,
+                        az,
+                        params,
+                        table,
+                        tri,
+                        cell_start,
+                        cell_tris,
+                        dt,
+                        one,
                     )
+                    killed |= swept_kill
+                    if track_hits:
+                        last_hit = swept_hit
+                for c in range(n_colliders):
+                    if any_mesh:
+                        if kinds[c] == _MESH:
+                            dist, nx, ny, nz = mesh_distance(
+                                table[c],
+                                tri,
+                                cell_start,
+                                cell_tris,
+                                float(px),
+                                float(py),
+                                float(pz),
+                                float(x0),
+                                float(y0),
+                                float(z0),
+                                0.0,
+                            )
+                        else:
+                            dist, nx, ny, nz = signed_distance(
+                                kinds[c], insides[c], table, c, px, py, pz, one
+                            )
+                    else:
+                        dist, nx, ny, nz = signed_distance(
+                            kinds[c], insides[c], table, c, px, py, pz, one
+                        )
                     px, py, pz, vx, vy, vz, hit, kill = respond(
                         responses[c],
                         frictions[c],

@@ -301,9 +301,10 @@ class World:
         self._pin_targets = [np.array([t for _, t in kept])] if kept else []
         self._built = None
 
-    def add_collider(self, collider, detection: Detection | str = Detection.POSTERIORI) -> None:
+    def add_collider(self, collider, detection: Detection | str | None = None) -> None:
         """A plane, sphere, box, capsule or triangle mesh; ``detection`` is
-        ``"posteriori"`` (after the move) or ``"priori"`` (swept; planes, boxes, meshes).
+        ``"posteriori"`` (after the move) or ``"priori"`` (swept), by default the
+        collider's own (:attr:`motes.collide.Collider.detection`).
         The collider's ``friction`` is the Coulomb mu of the depth-based friction; its
         ``restitution`` is kept of the normal speed of a hit, found before the move
         (swept) or after it (a velocity pass after the relaxation, see
