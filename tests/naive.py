@@ -84,3 +84,13 @@ def compact(arrays, keep):
 def curve(t, times, values):
     """Piecewise-linear interpolation of each column of ``values`` at ``t``."""
     return np.stack([np.interp(t, times, values[:, c]) for c in range(values.shape[1])], axis=1)
+
+
+def first_non_finite(values, *, infinite_ok=False):
+    """Index of the first column of ``values`` ((c, n) or (n,)) holding NaN or infinity
+    (NaN only with ``infinite_ok``), or -1: the twin of ``finite.first_at_least``
+    over an attribute's rows."""
+    rows = np.asarray(values).reshape(-1, np.asarray(values).shape[-1])
+    bad = np.isnan(rows) if infinite_ok else ~np.isfinite(rows)
+    hits = np.flatnonzero(bad.any(axis=0))
+    return int(hits[0]) if hits.size else -1

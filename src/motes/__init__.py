@@ -10,6 +10,7 @@ True
 """
 
 from . import colliders, constrain, fluids, geometry, io, render, rigid, scene, shapes, spatial
+from ._memory import InsufficientMemoryError
 from ._version import __version__ as __version__
 from .cloth import Airflow, Cloth, Keyframes, SpringFamily
 from .collide import Capsule, Friction, Response, TriangleMeshCollider
@@ -34,6 +35,7 @@ from .emit import (
     ShapeNormal,
     Uniform,
 )
+from .finite import NonFiniteError, check_finite
 from .fluids import Fluid, FluidModel
 from .forces import (
     CallbackForce,
@@ -112,10 +114,12 @@ __all__ = [
     "Hair",
     "Head",
     "ImplicitEuler",
+    "InsufficientMemoryError",
     "Integrator",
     "IntensityBelow",
     "Isotropic",
     "Keyframes",
+    "NonFiniteError",
     "Normal",
     "ParticleEvent",
     "ParticleStore",
@@ -149,6 +153,7 @@ __all__ = [
     "Vortex",
     "Wind",
     "add_ragdoll",
+    "check_finite",
     "colliders",
     "constrain",
     "fluids",

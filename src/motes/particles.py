@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import prange
 
+from . import _memory
 from . import _validate as check
 from ._jit import SERIAL_BELOW, device, parallel_kernel, serial_kernel
 from .state import Field, ParticleState
@@ -145,8 +146,8 @@ class ParticleStore:
         self._specs: dict[str, Attribute] = {}
         self._arrays: dict[str, np.ndarray] = {}
         self._defaults: dict[str, np.ndarray] = {}
-        self._keep = np.ones(self.capacity, dtype=np.bool_)
         self.require(*CORE, *attributes)
+        self._keep = np.ones(self.capacity, dtype=np.bool_)
 
     # -- attributes -------------------------------------------------------------------
     def require(self, *attributes: str | Attribute) -> None:
@@ -155,13 +156,20 @@ class ParticleStore:
         Already allocated attributes are left as they are; live particles get the default
         value of a newly allocated one.
         """
+        new: dict[str, Attribute] = {}
         for item in attributes:
             spec = item if isinstance(item, Attribute) else self._builtin(item)
-            if spec.name in self._specs:
-                if self._specs[spec.name] != spec:
+            known = self._specs.get(spec.name, new.get(spec.name))
+            if known is not None:
+                if known != spec:
                     raise ValueError(f"attribute {spec.name!r} is already declared differently")
                 continue
-            dtype = self.dtype if spec.dtype == REAL else np.dtype(spec.dtype)
+            new[spec.name] = spec
+        if not new:
+            return
+        self._check_memory([*self._specs.values(), *new.values()])
+        for spec in new.values():
+            dtype = self._dtype_of(spec)
             shape = (self.capacity,) if spec.components == 1 else (spec.components, self.capacity)
             array = np.empty(shape, dtype=dtype)
             self._specs[spec.name] = spec
@@ -175,6 +183,18 @@ class ParticleStore:
         for array in self._arrays.values():
             groups.setdefault(array.dtype, []).append(array.reshape(-1, self.capacity))
         self._groups = [tuple(views) for views in groups.values()]
+
+    def _dtype_of(self, spec: Attribute) -> np.dtype:
+        return self.dtype if spec.dtype == REAL else np.dtype(spec.dtype)
+
+    def _check_memory(self, specs: list[Attribute]) -> None:
+        """Refuse, before allocating, attributes that would not fit in memory."""
+        per_particle = 1 + sum(s.components * self._dtype_of(s).itemsize for s in specs)
+        _memory.check(
+            f"capacity = {self.capacity}",
+            per_particle * self.capacity,
+            per=f"{per_particle} B per particle for {len(specs)} attributes and the kill mask",
+        )
 
     @staticmethod
     def _builtin(name: str) -> Attribute:

@@ -1,14 +1,18 @@
 """``motes run``, ``motes scenes``, ``motes --version``.
 
-User mistakes (a bad scene key, a missing file, a bad option) end with exit status 2 and
-one line ``motes: error: ...`` on stderr, without a traceback. Ctrl-C ends with status
-130, SIGTERM with 143, after every finished frame has been written and the video closed.
+User mistakes (a bad scene key, a missing file, a bad option, a size that would not fit
+in memory) end with exit status 2 and one line ``motes: error: ...`` on stderr, without a
+traceback. So does a particle whose state turns NaN or infinite (checked after every
+frame unless ``--no-check-finite``), after the frames before it have been written. Ctrl-C
+ends with status 130, SIGTERM with 143, after every finished frame has been written and
+the video closed.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import os
 import re
 import signal
@@ -23,6 +27,7 @@ examples:
   motes run smoke -o still.png            the last frame as a PNG
   motes run my_scene.toml -o frames/      a numbered PNG sequence in frames/
   motes run rain --resolution 640x360 --seed 3 --export rain.npz
+  motes run fire --set system.flame.emitter.0.rate.rate=500 --set camera.fov=40
 """
 
 
@@ -86,6 +91,16 @@ def _parser() -> argparse.ArgumentParser:
         "--seed", type=_integer_from(0), metavar="S", help="random seed (overrides the scene)"
     )
     run.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        dest="overrides",
+        metavar="KEY=VALUE",
+        help="set a value of the scene file, e.g. scene.seed=7, camera.fov=40, "
+        "system.0.emitter.0.rate.rate=500 or system.NAME.capacity=5000 (a TOML value; "
+        "other text is a string); repeatable",
+    )
+    run.add_argument(
         "--resolution",
         type=_resolution,
         metavar="WxH",
@@ -104,6 +119,12 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="replace the frames of an earlier run in a non-empty frame folder",
     )
+    run.add_argument(
+        "--no-check-finite",
+        dest="check_finite",
+        action="store_false",
+        help="do not stop at the first particle whose state turns NaN or infinite",
+    )
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
     sub.add_parser("scenes", help="list the built-in scenes")
     show = sub.add_parser(
@@ -117,6 +138,8 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .._memory import InsufficientMemoryError
+
     parser = _parser()
     args = parser.parse_args(argv)
     if args.version:
@@ -135,7 +158,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "show":
             return _show(args.scene)
         return _run(args)
-    except UserError as error:
+    except (UserError, InsufficientMemoryError) as error:
         print(f"motes: error: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
@@ -188,12 +211,16 @@ def _record(scene) -> dict[str, str]:
     """What an output records of how it was made: enough to make it again."""
     from .._version import __version__
 
-    return {
+    record = {
         "scene": scene.name,
         "source": str(scene.source),
         "seed": str(scene.seed),
         "motes_version": __version__,
     }
+    if scene.overrides:
+        # TOML values are JSON values except dates, which no scene key takes.
+        record["overrides"] = json.dumps(scene.overrides, default=str)
+    return record
 
 
 def _check_writable(path: Path | None) -> None:
@@ -263,13 +290,18 @@ def _warn_dropped(scene, warned: set) -> None:
 
 
 def _run(args) -> int:
+    from ..finite import NonFiniteError
     from ..io.cache import CacheWriter
     from ..io.frames import open_writer
     from ..scene import SceneError, load_scene
+    from ..scene.overrides import parse_assignment
     from .progress import Progress
 
     try:
-        scene = load_scene(args.scene, seed=args.seed)
+        overrides = dict(parse_assignment(text) for text in args.overrides)
+        scene = load_scene(
+            args.scene, seed=args.seed, overrides=overrides, check_finite=args.check_finite
+        )
     except SceneError as error:
         raise UserError(str(error)) from None
     except OSError as error:
@@ -289,12 +321,15 @@ def _run(args) -> int:
         _check_writable(path)
     if output is not None and output.suffix == "":
         _clear_frames(output, overwrite=args.overwrite)
+    if output is not None:
+        scene.renderer(resolution)  # a frame that would not fit in memory fails here
 
     progress = Progress(frames, label=scene.name, enabled=not args.quiet)
     progress.begin()
     start = time.perf_counter()
     done = 0
     interrupted = False
+    failure = None
     warned: set[str] = set()
     # An ExitStack closes every output even when closing another one fails (a second
     # Ctrl-C, an ffmpeg error): each keeps the frames finished so far.
@@ -325,6 +360,12 @@ def _run(args) -> int:
                 _warn_dropped(scene, warned)
         except KeyboardInterrupt:
             interrupted = True
+        except NonFiniteError as error:
+            failure = error  # reported once every output is closed
+    if failure is not None:
+        held = writer.frames_written if writer is not None else 0
+        kept = f"; {output} holds the {held} frame{'s' * (held != 1)} before" if held else ""
+        raise UserError(f"{failure}{kept}")
     if interrupted:
         # Ctrl-C can land after a frame reached the output and before it was counted
         # here: the writer's own count is what the file holds.

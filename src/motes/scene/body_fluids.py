@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from .. import fluids
+from ..fluids.fluid import check_memory
 from ..render import geometry
 from ..render.metaballs import Metaballs
 from ..render.shading import Material
@@ -318,6 +319,8 @@ def build_fluid(table: Table, context: BuildContext) -> FluidBody:
         )  # fmt: skip
         item.finish()
     limit = table.get("max_particles", integer(1), 20_000)
+    if nozzles:  # sources fill the liquid up to the limit: it must fit
+        build(table.key_path("max_particles"), check_memory, f"max_particles = {limit}", limit)
     forces = body_forces(table)
     if positions:
         pos = np.concatenate(positions, axis=1)

@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import re
 import tomllib
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
 from .. import hierarchy
 from ..collide.colliders import Collider
+from ..finite import check_finite
 from ..render.camera import Camera, Projection
 from ..state import ParticleState
 from ..system import ParticleSystem
@@ -22,6 +24,7 @@ from . import parts
 from .bodies import Body, BuildContext, build_body
 from .camera_path import CameraPath
 from .looks import ParticleLook, RenderSettings, SceneObject, SurfaceLook
+from .overrides import apply_overrides
 from .schema import (
     SceneError,
     Table,
@@ -61,6 +64,12 @@ class Scene:
     camera_path : CameraPath or None
         Keyframes (``[[camera.key]]``) that move the camera :meth:`render` draws with;
         ``camera`` keeps the ``[camera]`` table's view (screen-scaled emission uses it).
+    check_finite : bool
+        Whether :meth:`advance` checks every system and body for NaN and infinity after
+        each frame (:func:`motes.finite.check_finite`), raising
+        :class:`~motes.finite.NonFiniteError`. Off unless asked for.
+    overrides : dict[str, object]
+        The values :func:`load_scene` set over the file's (dotted key -> value).
     """
 
     def __init__(
@@ -80,6 +89,8 @@ class Scene:
         bodies=None,
         source=None,
         camera_path=None,
+        check_finite=False,
+        overrides=None,
     ):
         self.name = name
         self.description = description
@@ -95,6 +106,8 @@ class Scene:
         self.bodies: dict[str, Body] = dict(bodies or {})
         self.source = source
         self.camera_path: CameraPath | None = camera_path
+        self.check_finite = bool(check_finite)
+        self.overrides: dict[str, object] = dict(overrides or {})
         children = {id(c) for s in systems.values() for c in s.children}
         self.roots = [s for s in systems.values() if id(s) not in children]
         self.frame = 0
@@ -119,6 +132,14 @@ class Scene:
             for body in self.bodies.values():
                 body.step(dt)
         self.frame += 1
+        if self.check_finite:
+            self._check_finite()
+
+    def _check_finite(self) -> None:
+        """Raise :class:`~motes.finite.NonFiniteError` at the first NaN or infinity."""
+        for kind, items in (("system", self.systems), ("body", self.bodies)):
+            for name, item in items.items():
+                check_finite(item, owner=f"{kind} {name!r}", frame=self.frame, time=self.time)
 
     def counts(self) -> dict[str, int]:
         """Live particles per system and body."""
@@ -151,12 +172,21 @@ class Scene:
         renderer is kept per resolution (a gallery renders stills and thumbnails). A
         keyframed camera (``camera_path``) is placed at the scene's time.
         """
+        return self.renderer(resolution).render_scene(self)
+
+    def renderer(self, resolution=None):
+        """The renderer :meth:`render` uses at ``resolution`` (made on first use).
+
+        Making it checks that a frame fits in memory
+        (:class:`~motes.InsufficientMemoryError` otherwise): ``motes run`` asks
+        for it before simulating.
+        """
         from .drawing import SceneRenderer
 
         wanted = self.camera.resolution if resolution is None else tuple(resolution)
         if wanted not in self._renderers:
             self._renderers[wanted] = SceneRenderer(self, wanted)
-        return self._renderers[wanted].render_scene(self)
+        return self._renderers[wanted]
 
     def __repr__(self) -> str:
         counts = ", ".join(f"{k}={v}" for k, v in self.counts().items())
@@ -175,18 +205,33 @@ def builtin_scenes() -> dict[str, str]:
     return result
 
 
-def load_scene(source, *, seed: int | None = None) -> Scene:
+def load_scene(
+    source,
+    *,
+    seed: int | None = None,
+    overrides: Mapping[str, object] | None = None,
+    check_finite: bool = False,
+) -> Scene:
     """Load a scene from a built-in name, a path to a ``.toml`` file, or TOML text.
 
-    ``seed`` overrides the file's ``scene.seed``. Mistakes raise :class:`SceneError` with
-    the key path, the value and what is allowed.
+    ``seed`` overrides the file's ``scene.seed`` (also over ``overrides``).
+    ``overrides`` maps dotted keys to values set over the file's before it is read
+    (``{"scene.seed": 7, "system.fire.emitter.0.rate": 500, "camera.fov": 40}``; see
+    :mod:`motes.scene.overrides`), so they are checked as the file's values are.
+    ``check_finite`` makes :meth:`Scene.advance` stop at the first NaN or infinity.
+    Mistakes raise :class:`SceneError` with the key path, the value and what is allowed.
     """
     text, origin, base = _read_source(source)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise SceneError(origin, f"not valid TOML: {error}") from None
-    return _build_scene(Table(data, ""), origin, base, seed)
+    overrides = dict(overrides or {})
+    apply_overrides(data, overrides)
+    scene = _build_scene(Table(data, ""), origin, base, seed)
+    scene.check_finite = bool(check_finite)
+    scene.overrides = overrides
+    return scene
 
 
 def builtin_text(name: str) -> str:
@@ -426,7 +471,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         system = build(
             t.path,
             ParticleSystem,
-            t.get("capacity", integer(1, 100_000_000), 100_000),
+            capacity=t.get("capacity", integer(1, 100_000_000), 100_000),
             seed=int(seq.generate_state(1)[0]),
             integrator=t.get("integrator", one_of(*parts.INTEGRATORS), "semi_implicit_euler"),
             verlet_damping=t.get("verlet_damping", number(0.0, 1.0), 0.0),
