@@ -3,7 +3,9 @@
 Every compiled kernel in motes is decorated with one of the decorators below,
 so the flags are chosen once:
 
-- ``fastmath=True`` lets LLVM reassociate and vectorise float arithmetic.
+- ``fastmath=FASTMATH``: every fast-math flag but ``reassoc`` and ``contract`` (see
+  :data:`FASTMATH`), so that a kernel computes the same bits whether it was just compiled
+  or loaded from the disk cache.
 - ``error_model="numpy"``: the default ``"python"`` model inserts a zero-division check
   into every division, and that branch blocks SIMD in the whole loop.
 - ``cache=True`` keeps compiled machine code on disk between processes (a first call
@@ -24,7 +26,27 @@ import numba
 import numpy as np
 from numba import njit
 
-_COMMON = {"fastmath": True, "error_model": "numpy"}
+#: LLVM fast-math flags of every kernel: ``fastmath=True`` less ``reassoc`` and ``contract``.
+#:
+#: Numba compiles what a kernel calls (the body of a ``prange`` loop, which becomes a
+#: function of its own, and every compiled function it calls) twice: once on its own, and
+#: once as a copy linked into the kernel's module and optimised again with it. A process
+#: that compiles the kernel runs the first (the kernel's call resolves to the definition
+#: loaded first); a process that loads it from the disk cache has only the second. LLVM's
+#: passes keep every value exact unless a flag allows otherwise, and two flags let the
+#: second optimisation round differently from the first: ``reassoc`` (regroup sums and
+#: products, e.g. to vectorise a reduction) and ``contract`` (fuse a multiply and an add
+#: into one FMA, rounded once, where both land in one basic block). With them the curl
+#: noise's cached kernel differed from the fresh one in the last bits. Without them loops
+#: still vectorise, but a float sum in a loop keeps its source order, so that loop no
+#: longer vectorises (the metaball gradient computes its terms in a vectorised loop and
+#: adds them in a fixed order of its own), and no multiply-add is fused. The flags kept:
+#: ``nnan``, ``ninf`` (no NaN or infinity checks), ``nsz`` (the sign of a zero may be
+#: ignored), ``arcp`` (divide by multiplying by a reciprocal), ``afn`` (approximate math
+#: functions).
+FASTMATH = frozenset({"nnan", "ninf", "nsz", "arcp", "afn"})
+
+_COMMON = {"fastmath": set(FASTMATH), "error_model": "numpy"}
 
 #: Parallel kernel over particles: iterations must be independent.
 parallel_kernel = njit(parallel=True, cache=True, **_COMMON)

@@ -31,7 +31,8 @@ short rows of exponentials per column it reaches and one multiply-add per node.
 
 The normals are a gather too: mesh vertices are counting-sorted into cubes of
 ``GROUP_BINS`` bins; each cube collects the particles within reach of it once, and each
-of its vertices sums over that list in one vectorised loop.
+of its vertices sums over that list: the terms in one vectorised loop, then their sum in
+a fixed order (compiled code may not reorder a sum, see ``motes._jit.FASTMATH``).
 """
 
 from __future__ import annotations
@@ -128,6 +129,27 @@ def _exp(x):
     p = p * f + np.float32(1.0)
     p = p * f + np.float32(1.0)
     return p * _float32_from_bits((np.int32(n) + np.int32(127)) << np.int32(23))
+
+
+@device
+def _lane_sum(values, n):
+    """``values[0] + ... + values[n - 1]`` for ``n`` a multiple of ``LANES``, in a fixed order.
+
+    Eight running sums (of every eighth value) in registers, then added pairwise: an
+    eighth of the latency chain of one running sum, and the same bits however the kernel
+    around it is compiled.
+    """
+    s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = np.float32(0.0)
+    for base in range(np.uint64(0), np.uint64(n), np.uint64(LANES)):
+        s0 += values[base]
+        s1 += values[base + 1]
+        s2 += values[base + 2]
+        s3 += values[base + 3]
+        s4 += values[base + 4]
+        s5 += values[base + 5]
+        s6 += values[base + 6]
+        s7 += values[base + 7]
+    return ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7))
 
 
 @serial_kernel
@@ -310,9 +332,9 @@ def _gradient_kernel(
     ``group_shape`` cubes along each axis).
     Each group first copies the particles within ``sqrt(reach2)`` (the largest ``r_c``)
     of its cube into a local list padded to whole SIMD vectors, then each of its points
-    sums over that list in one contiguous, vectorised loop, testing each particle's own
-    ``r_c``. Groups write disjoint points: no races, and each point's sum has a fixed
-    order.
+    computes its terms over that list in one contiguous, vectorised loop, testing each
+    particle's own ``r_c``, and sums them with :func:`_lane_sum`. Groups write disjoint
+    points: no races, and each point's sum has a fixed order.
     """
     nbx, nby, nbz = bin_shape[0], bin_shape[1], bin_shape[2]
     ngy, ngz = group_shape[1], group_shape[2]
@@ -321,6 +343,7 @@ def _gradient_kernel(
     n_groups = group_keys.size
     for block in numba.prange((n_groups + GROUPS - 1) // GROUPS):
         near = np.empty((5, 0), dtype=np.float32)
+        terms = np.empty((3, 0), dtype=np.float32)
         for g in range(block * GROUPS, min(n_groups, block * GROUPS + GROUPS)):
             gx, rest = divmod(group_keys[g], ngy * ngz)
             gy, gz = divmod(rest, ngz)
@@ -338,6 +361,7 @@ def _gradient_kernel(
                     total += offsets[col + z1] - offsets[col + z0]
             if near.shape[1] < total + LANES:
                 near = np.empty((5, 2 * total + LANES), dtype=np.float32)
+                terms = np.empty((3, 2 * total + LANES), dtype=np.float32)
             # Copy the particles within reach of the cube, branch-free (always write, keep
             # by advancing the count): which ones are kept is unpredictable.
             count = 0
@@ -363,9 +387,9 @@ def _gradient_kernel(
                 x = np.float32(points[v, 0] - origin[0])
                 y = np.float32(points[v, 1] - origin[1])
                 z = np.float32(points[v, 2] - origin[2])
-                sx = np.float32(0.0)
-                sy = np.float32(0.0)
-                sz = np.float32(0.0)
+                # Two passes: the terms (vectorised: no sum in the loop), then their sums
+                # in a fixed order (a sum in the loop would vectorise only if the compiler
+                # could reorder it, which _jit.FASTMATH does not allow).
                 for p in range(np.uint64(padded)):
                     dx = x - near[0, p]
                     dy = y - near[1, p]
@@ -373,9 +397,12 @@ def _gradient_kernel(
                     d2 = dx * dx + dy * dy + dz * dz
                     e = near[3, p] * _exp(-a * d2)
                     e = e if d2 < near[4, p] else np.float32(0.0)
-                    sx += e * dx
-                    sy += e * dy
-                    sz += e * dz
+                    terms[0, p] = e * dx
+                    terms[1, p] = e * dy
+                    terms[2, p] = e * dz
+                sx = _lane_sum(terms[0], padded)
+                sy = _lane_sum(terms[1], padded)
+                sz = _lane_sum(terms[2], padded)
                 if unit:  # -∇D / |∇D| = s / |s|
                     length = math.sqrt(sx * sx + sy * sy + sz * sz)
                     scale = np.float32(1.0) / length if length > 0.0 else np.float32(0.0)
