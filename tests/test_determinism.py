@@ -12,7 +12,7 @@ import pytest
 from numpy.testing import assert_array_equal
 
 import motes
-from motes._jit import SERIAL_BELOW
+from motes._jit import SERIAL_BELOW, ordered_sum
 from motes.demo import build_fire
 
 
@@ -54,6 +54,26 @@ def test_result_does_not_depend_on_thread_count():
     assert one["id"].shape[0] > SERIAL_BELOW
     for name in one:
         assert_array_equal(one[name], two[name], err_msg=name)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("count", [0, 1, 7, 8, 19, 64, 203])
+def test_ordered_sum_adds_in_its_documented_order(count, dtype):
+    """Eight running sums (value v into sum v mod 8), added pairwise, then the rest in
+    order: the same bits as that order spelled out in NumPy, in the input's dtype (a sum
+    promoted to float64 would round differently)."""
+    values = np.random.default_rng(count).standard_normal(count + 5).astype(dtype)
+    whole = count // 8 * 8
+    lanes = [dtype(0)] * 8
+    for v in range(whole):
+        lanes[v % 8] = dtype(lanes[v % 8] + values[v])
+    expected = dtype((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])) + dtype(
+        (lanes[4] + lanes[5]) + (lanes[6] + lanes[7])
+    )
+    for v in range(whole, count):
+        expected = dtype(expected + values[v])
+    got = numba.njit(lambda a, n: ordered_sum(a, n))(values, count)
+    assert got == expected
 
 
 # -- freshly compiled against loaded from Numba's disk cache -------------------------------

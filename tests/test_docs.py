@@ -64,6 +64,15 @@ def test_rigid_guide_examples_run(capsys):
     assert "0.64\n[0. 2.]" in out  # restitution: e² of the drop; a ball passes its velocity on
 
 
+def test_the_index_links_every_page_and_every_link_resolves():
+    index = (DOCS / "index.md").read_text()
+    links = {link for link in re.findall(r"\]\(([^)#]+)", index) if "://" not in link}
+    pages = {str(page.relative_to(DOCS)) for page in DOCS.rglob("*.md")} - {"index.md"}
+    assert pages <= links, f"docs/index.md does not link {sorted(pages - links)}"
+    for link in links:
+        assert (DOCS / link).exists(), link
+
+
 # -- commands the docs show ----------------------------------------------------------------
 ROOT = DOCS.parent
 #: Pages whose commands must work: every doc page and the README (the changelog is

@@ -50,6 +50,7 @@ from .._jit import (
     block_bounds,
     block_count,
     device,
+    ordered_sum,
     parallel_kernel,
     serial_kernel,
     threads_for,
@@ -129,27 +130,6 @@ def _exp(x):
     p = p * f + np.float32(1.0)
     p = p * f + np.float32(1.0)
     return p * _float32_from_bits((np.int32(n) + np.int32(127)) << np.int32(23))
-
-
-@device
-def _lane_sum(values, n):
-    """``values[0] + ... + values[n - 1]`` for ``n`` a multiple of ``LANES``, in a fixed order.
-
-    Eight running sums (of every eighth value) in registers, then added pairwise: an
-    eighth of the latency chain of one running sum, and the same bits however the kernel
-    around it is compiled.
-    """
-    s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = np.float32(0.0)
-    for base in range(np.uint64(0), np.uint64(n), np.uint64(LANES)):
-        s0 += values[base]
-        s1 += values[base + 1]
-        s2 += values[base + 2]
-        s3 += values[base + 3]
-        s4 += values[base + 4]
-        s5 += values[base + 5]
-        s6 += values[base + 6]
-        s7 += values[base + 7]
-    return ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7))
 
 
 @serial_kernel
@@ -333,8 +313,8 @@ def _gradient_kernel(
     Each group first copies the particles within ``sqrt(reach2)`` (the largest ``r_c``)
     of its cube into a local list padded to whole SIMD vectors, then each of its points
     computes its terms over that list in one contiguous, vectorised loop, testing each
-    particle's own ``r_c``, and sums them with :func:`_lane_sum`. Groups write disjoint
-    points: no races, and each point's sum has a fixed order.
+    particle's own ``r_c``, and adds them with :func:`motes._jit.ordered_sum`. Groups
+    write disjoint points: no races, and each point's sum has a fixed order.
     """
     nbx, nby, nbz = bin_shape[0], bin_shape[1], bin_shape[2]
     ngy, ngz = group_shape[1], group_shape[2]
@@ -388,8 +368,7 @@ def _gradient_kernel(
                 y = np.float32(points[v, 1] - origin[1])
                 z = np.float32(points[v, 2] - origin[2])
                 # Two passes: the terms (vectorised: no sum in the loop), then their sums
-                # in a fixed order (a sum in the loop would vectorise only if the compiler
-                # could reorder it, which _jit.FASTMATH does not allow).
+                # in a fixed order (see _jit.ordered_sum).
                 for p in range(np.uint64(padded)):
                     dx = x - near[0, p]
                     dy = y - near[1, p]
@@ -400,9 +379,9 @@ def _gradient_kernel(
                     terms[0, p] = e * dx
                     terms[1, p] = e * dy
                     terms[2, p] = e * dz
-                sx = _lane_sum(terms[0], padded)
-                sy = _lane_sum(terms[1], padded)
-                sz = _lane_sum(terms[2], padded)
+                sx = ordered_sum(terms[0], padded)
+                sy = ordered_sum(terms[1], padded)
+                sz = ordered_sum(terms[2], padded)
                 if unit:  # -∇D / |∇D| = s / |s|
                     length = math.sqrt(sx * sx + sy * sy + sz * sz)
                     scale = np.float32(1.0) / length if length > 0.0 else np.float32(0.0)
