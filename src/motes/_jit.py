@@ -3,7 +3,9 @@
 Every compiled kernel in motes is decorated with one of the decorators below,
 so the flags are chosen once:
 
-- ``fastmath=True`` lets LLVM reassociate and vectorise float arithmetic.
+- ``fastmath=FASTMATH``: every fast-math flag but ``reassoc`` and ``contract`` (see
+  :data:`FASTMATH`), so that a kernel computes the same bits whether it was just compiled
+  or loaded from the disk cache.
 - ``error_model="numpy"``: the default ``"python"`` model inserts a zero-division check
   into every division, and that branch blocks SIMD in the whole loop.
 - ``cache=True`` keeps compiled machine code on disk between processes (a first call
@@ -24,7 +26,27 @@ import numba
 import numpy as np
 from numba import njit
 
-_COMMON = {"fastmath": True, "error_model": "numpy"}
+#: LLVM fast-math flags of every kernel: ``fastmath=True`` less ``reassoc`` and ``contract``.
+#:
+#: Numba compiles what a kernel calls (the body of a ``prange`` loop, which becomes a
+#: function of its own, and every compiled function it calls) twice: once on its own, and
+#: once as a copy linked into the kernel's module and optimised again with it. A process
+#: that compiles the kernel runs the first (the kernel's call resolves to the definition
+#: loaded first); a process that loads it from the disk cache has only the second. LLVM's
+#: passes keep every value exact unless a flag allows otherwise, and two flags let the
+#: second optimisation round differently from the first: ``reassoc`` (regroup sums and
+#: products, e.g. to vectorise a reduction) and ``contract`` (fuse a multiply and an add
+#: into one FMA, rounded once, where both land in one basic block). With them the curl
+#: noise's cached kernel differed from the fresh one in the last bits. Without them loops
+#: still vectorise, but a float sum in a loop keeps its source order, so that loop no
+#: longer vectorises (a hot sum is written as a loop of terms and :func:`ordered_sum`),
+#: and no multiply-add is fused. The flags kept:
+#: ``nnan``, ``ninf`` (no NaN or infinity checks), ``nsz`` (the sign of a zero may be
+#: ignored), ``arcp`` (divide by multiplying by a reciprocal), ``afn`` (approximate math
+#: functions).
+FASTMATH = frozenset({"nnan", "ninf", "nsz", "arcp", "afn"})
+
+_COMMON = {"fastmath": set(FASTMATH), "error_model": "numpy"}
 
 #: Parallel kernel over particles: iterations must be independent.
 parallel_kernel = njit(parallel=True, cache=True, **_COMMON)
@@ -64,6 +86,36 @@ def block_bounds(block, n):
     """
     start = block * BLOCK
     return np.uint64(start), np.uint64(min(n, start + BLOCK))
+
+
+@device
+def ordered_sum(values, count):
+    """``values[0] + ... + values[count - 1]`` in a fixed order, eight running sums at once.
+
+    A float sum in a compiled loop keeps its source order (:data:`FASTMATH` has no
+    ``reassoc``), so the loop does not vectorise and each addition waits for the last.
+    A kernel that needs a fast sum computes its terms in a loop of their own (which can
+    vectorise: nothing is summed there) and adds them here: value ``v`` goes to running
+    sum ``v mod 8``, the eight are added pairwise, then the last ``count mod 8`` values in
+    order. Eight independent chains take about an eighth of the time of one; the order,
+    and so the bits, do not depend on how the kernel around it was compiled.
+    """
+    zero = values.dtype.type(0)
+    s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = zero
+    whole = np.uint64(count) // np.uint64(8) * np.uint64(8)
+    for base in range(np.uint64(0), whole, np.uint64(8)):
+        s0 += values[base]
+        s1 += values[base + 1]
+        s2 += values[base + 2]
+        s3 += values[base + 3]
+        s4 += values[base + 4]
+        s5 += values[base + 5]
+        s6 += values[base + 6]
+        s7 += values[base + 7]
+    total = ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7))
+    for v in range(whole, np.uint64(count)):
+        total += values[v]
+    return total
 
 
 #: Below this many particles a step runs its parallel kernels on one thread: waking the

@@ -31,7 +31,8 @@ short rows of exponentials per column it reaches and one multiply-add per node.
 
 The normals are a gather too: mesh vertices are counting-sorted into cubes of
 ``GROUP_BINS`` bins; each cube collects the particles within reach of it once, and each
-of its vertices sums over that list in one vectorised loop.
+of its vertices sums over that list: the terms in one vectorised loop, then their sum in
+a fixed order (compiled code may not reorder a sum, see ``motes._jit.FASTMATH``).
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ from .._jit import (
     block_bounds,
     block_count,
     device,
+    ordered_sum,
     parallel_kernel,
     serial_kernel,
     threads_for,
@@ -310,9 +312,9 @@ def _gradient_kernel(
     ``group_shape`` cubes along each axis).
     Each group first copies the particles within ``sqrt(reach2)`` (the largest ``r_c``)
     of its cube into a local list padded to whole SIMD vectors, then each of its points
-    sums over that list in one contiguous, vectorised loop, testing each particle's own
-    ``r_c``. Groups write disjoint points: no races, and each point's sum has a fixed
-    order.
+    computes its terms over that list in one contiguous, vectorised loop, testing each
+    particle's own ``r_c``, and adds them with :func:`motes._jit.ordered_sum`. Groups
+    write disjoint points: no races, and each point's sum has a fixed order.
     """
     nbx, nby, nbz = bin_shape[0], bin_shape[1], bin_shape[2]
     ngy, ngz = group_shape[1], group_shape[2]
@@ -321,6 +323,7 @@ def _gradient_kernel(
     n_groups = group_keys.size
     for block in numba.prange((n_groups + GROUPS - 1) // GROUPS):
         near = np.empty((5, 0), dtype=np.float32)
+        terms = np.empty((3, 0), dtype=np.float32)
         for g in range(block * GROUPS, min(n_groups, block * GROUPS + GROUPS)):
             gx, rest = divmod(group_keys[g], ngy * ngz)
             gy, gz = divmod(rest, ngz)
@@ -338,6 +341,7 @@ def _gradient_kernel(
                     total += offsets[col + z1] - offsets[col + z0]
             if near.shape[1] < total + LANES:
                 near = np.empty((5, 2 * total + LANES), dtype=np.float32)
+                terms = np.empty((3, 2 * total + LANES), dtype=np.float32)
             # Copy the particles within reach of the cube, branch-free (always write, keep
             # by advancing the count): which ones are kept is unpredictable.
             count = 0
@@ -363,9 +367,8 @@ def _gradient_kernel(
                 x = np.float32(points[v, 0] - origin[0])
                 y = np.float32(points[v, 1] - origin[1])
                 z = np.float32(points[v, 2] - origin[2])
-                sx = np.float32(0.0)
-                sy = np.float32(0.0)
-                sz = np.float32(0.0)
+                # Two passes: the terms (vectorised: no sum in the loop), then their sums
+                # in a fixed order (see _jit.ordered_sum).
                 for p in range(np.uint64(padded)):
                     dx = x - near[0, p]
                     dy = y - near[1, p]
@@ -373,9 +376,12 @@ def _gradient_kernel(
                     d2 = dx * dx + dy * dy + dz * dz
                     e = near[3, p] * _exp(-a * d2)
                     e = e if d2 < near[4, p] else np.float32(0.0)
-                    sx += e * dx
-                    sy += e * dy
-                    sz += e * dz
+                    terms[0, p] = e * dx
+                    terms[1, p] = e * dy
+                    terms[2, p] = e * dz
+                sx = ordered_sum(terms[0], padded)
+                sy = ordered_sum(terms[1], padded)
+                sz = ordered_sum(terms[2], padded)
                 if unit:  # -∇D / |∇D| = s / |s|
                     length = math.sqrt(sx * sx + sy * sy + sz * sz)
                     scale = np.float32(1.0) / length if length > 0.0 else np.float32(0.0)
