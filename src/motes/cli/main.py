@@ -1,7 +1,8 @@
 """``motes run``, ``motes scenes``, ``motes --version``.
 
-User mistakes (a bad scene key, a missing file, a bad option) end with exit status 2 and
-one line ``motes: error: ...`` on stderr, without a traceback. Ctrl-C ends with status
+User mistakes (a bad scene key, a missing file, a bad option, a body that diverges while
+the scene runs) end with exit status 2 and one line ``motes: error: ...`` on stderr,
+without a traceback; the frames finished before a run fails are kept. Ctrl-C ends with status
 130, SIGTERM with 143, after every finished frame has been written and the video closed.
 """
 
@@ -325,6 +326,8 @@ def _run(args) -> int:
                 _warn_dropped(scene, warned)
         except KeyboardInterrupt:
             interrupted = True
+        except SceneError as error:  # a body diverged, a surface spread too far
+            raise UserError(f"{error} (after {done} frames)") from None
     if interrupted:
         # Ctrl-C can land after a frame reached the output and before it was counted
         # here: the writer's own count is what the file holds.

@@ -30,6 +30,7 @@ from .schema import (
     one_of,
     positive,
     scene_file,
+    shown,
     vector,
 )
 
@@ -85,7 +86,7 @@ def distribution(value, path):
 
 def _pair_only(table: Table, key: str) -> None:
     if len(table.data[key]) != 2:
-        raise SceneError(table.key_path(key), f"must be [a, b], got {table.data[key]!r}")
+        raise SceneError(table.key_path(key), f"must be [a, b], got {shown(table.data[key])}")
 
 
 # --- emission -----------------------------------------------------------------------------
