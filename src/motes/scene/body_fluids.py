@@ -268,11 +268,13 @@ class _TankWalls:
 
     def __init__(self, tank, thickness, rgb):
         self.tank, self.thickness, self.rgb = tank, thickness, rgb
+        # The extents at rest: a tank shaken far out would lose them to round-off.
+        self.size = np.asarray(tank.upper - tank.lower, dtype=np.float64)
 
     def boxes(self):
         lo, hi, t = self.tank.lower, self.tank.upper, self.thickness
         c = 0.5 * (lo + hi)
-        size = hi - lo
+        size = self.size
         slabs = [
             ((c[0], lo[1] - t / 2, c[2]), (size[0] + 2 * t, t, size[2] + 2 * t)),
             ((lo[0] - t / 2, c[1], c[2]), (t, size[1], size[2] + 2 * t)),

@@ -158,11 +158,20 @@ def build(path: str, factory: Callable, *args, **kwargs):
     except SceneError:
         raise  # a reader inside the factory named its key already
     except (ValueError, TypeError) as error:
-        message = str(error)
+        message = _clipped(str(error))
         first = message.split(" ", 1)[0]
         if first in kwargs:
             raise SceneError(f"{path}.{first}", message) from None
         raise SceneError(path, message) from None
+
+
+def _clipped(message: str, limit: int = 400) -> str:
+    """A library message on one line of at most ``limit`` characters (constructors quote
+    the values they were given, which a file can make as long as it likes)."""
+    message = " ".join(message.split())
+    if len(message) <= limit:
+        return message
+    return f"{message[: limit - 80]} ... {message[-70:]}"
 
 
 # --- scalar readers -----------------------------------------------------------------------
