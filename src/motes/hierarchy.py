@@ -46,6 +46,11 @@ class SpawnOnEvent:
         self.emitter = emitter
         self.on = check.choice("on", on, KINDS)
         if isinstance(count, Distribution):
+            count.check_fits("count", 1)
+            if count.lowest is not None and not count.lowest >= 0:
+                raise ValueError(
+                    f"count must be >= 0, got a law whose least value is {count.lowest}"
+                )
             self.count: Distribution | int = count
         else:
             self.count = check.integer("count", count, low=0)
@@ -62,20 +67,32 @@ class SpawnOnEvent:
         if self.child not in parent.children:
             parent.children.append(self.child)
 
-    def _counts(self, k: int) -> np.ndarray:
+    def _counts(self, k: int) -> tuple[np.ndarray, int]:
+        """Children of each of ``k`` events, cut to the child's free capacity, and how
+        many were asked for in all (exact: the excess is counted as dropped)."""
+        free = self.child.store.capacity - self.child.store.count
         if isinstance(self.count, int):
-            return np.full(k, self.count, dtype=np.int64)
-        rng = self.child.rng
-        values = as_distribution("count", self.count).sample(rng, k, 1)[:, 0]
-        if np.any(~(values >= 0)):
-            raise ValueError(f"count distribution must be >= 0, sampled {values.min()}")
-        # Stochastic rounding, vectorised: floor(x) + Bernoulli(frac(x)).
-        base = np.floor(values)
-        return (base + (rng.random(k) < values - base)).astype(np.int64)
+            counts = np.full(k, min(self.count, free), dtype=np.int64)
+            wanted = self.count * k
+        else:
+            rng = self.child.rng
+            values = as_distribution("count", self.count).sample(rng, k, 1)[:, 0]
+            if np.any(~(values >= 0)):
+                raise ValueError(f"count distribution must be >= 0, sampled {values.min()}")
+            # Stochastic rounding, vectorised: floor(x) + Bernoulli(frac(x)); at most
+            # 2^62 each, so that the integers (and their exact sum) cannot overflow.
+            base = np.floor(np.minimum(values, 2.0**62))
+            counts = (base + (rng.random(k) < values - base)).astype(np.int64)
+            wanted = int(counts.sum(dtype=object))
+            counts = np.minimum(counts, free)
+        # Children past the capacity would be dropped by the store: never allocate them.
+        placed = np.minimum(np.cumsum(counts), free)
+        return np.diff(placed, prepend=0), wanted
 
     def _spawn(self, event: ParticleEvent) -> None:
-        counts = self._counts(len(event))
+        counts, wanted = self._counts(len(event))
         total = int(counts.sum())
+        self.child.store.dropped += wanted - total
         if total == 0:
             return
         origins = np.repeat(event.position, counts, axis=0)

@@ -1,11 +1,11 @@
 """``motes run``, ``motes scenes``, ``motes --version``.
 
 User mistakes (a bad scene key, a missing file, a bad option, a size that would not fit
-in memory) end with exit status 2 and one line ``motes: error: ...`` on stderr, without a
-traceback. So does a particle whose state turns NaN or infinite (checked after every
-frame unless ``--no-check-finite``), after the frames before it have been written. Ctrl-C
-ends with status 130, SIGTERM with 143, after every finished frame has been written and
-the video closed.
+in memory, a body that diverges while the scene runs) end with exit status 2 and one
+line ``motes: error: ...`` on stderr, without a traceback. So does a particle whose state
+turns NaN or infinite (checked after every frame unless ``--no-check-finite``), after
+the frames before it have been written. Ctrl-C ends with status 130, SIGTERM with 143,
+after every finished frame has been written and the video closed.
 """
 
 from __future__ import annotations
@@ -360,6 +360,8 @@ def _run(args) -> int:
                 _warn_dropped(scene, warned)
         except KeyboardInterrupt:
             interrupted = True
+        except SceneError as error:  # a body diverged, a surface spread too far
+            failure = UserError(f"{error} (after {done} frames)")
         except NonFiniteError as error:
             failure = error  # reported once every output is closed
     if failure is not None:

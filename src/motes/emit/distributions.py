@@ -21,6 +21,16 @@ class Distribution:
     def sample(self, rng: np.random.Generator, count: int, components: int) -> np.ndarray:
         raise TypeError(f"{type(self).__name__} is abstract")
 
+    def check_fits(self, name: str, components: int) -> None:
+        """Raise ``ValueError`` (naming ``name``) if the values cannot fill an attribute
+        of ``components`` values: at construction, not at the first emission."""
+
+    @property
+    def lowest(self) -> float | None:
+        """The least value any component can take (``-inf`` if unbounded below), or None
+        when it cannot be known before sampling."""
+        return None
+
     @property
     def mean(self) -> np.ndarray:
         """Expected value (used for bounds and documentation)."""
@@ -55,6 +65,13 @@ class Constant(Distribution):
     def sample(self, rng, count, components):
         return np.broadcast_to(_fit("value", self.value, components), (count, components)).copy()
 
+    def check_fits(self, name, components):
+        _fit(name, self.value, components)
+
+    @property
+    def lowest(self):
+        return float(self.value.min())
+
     @property
     def mean(self):
         return self.value
@@ -73,6 +90,13 @@ class Uniform(Distribution):
         low = _fit("low", self.low, components)
         high = _fit("high", self.high, components)
         return low + (high - low) * rng.random((count, components))
+
+    def check_fits(self, name, components):
+        _fit(name, self.low, components)
+
+    @property
+    def lowest(self):
+        return float(self.low.min())
 
     @property
     def mean(self):
@@ -94,8 +118,21 @@ class Normal(Distribution):
         mean = _fit("mean", self._mean, components)
         values = mean + _fit("std", self.std, components) * rng.standard_normal((count, components))
         if self.low is not None or self.high is not None:
-            values = np.clip(values, self.low, self.high)
+            low = None if self.low is None else _fit("low", self.low, components)
+            high = None if self.high is None else _fit("high", self.high, components)
+            values = np.clip(values, low, high)
         return values
+
+    def check_fits(self, name, components):
+        for values in (self._mean, self.std, self.low, self.high):
+            if values is not None:
+                _fit(name, values, components)
+
+    @property
+    def lowest(self):
+        if self.low is not None:
+            return float(self.low.min())
+        return float(self._mean.min()) if np.all(self.std == 0) else -np.inf
 
     @property
     def mean(self):
@@ -137,6 +174,15 @@ class Gradient(Distribution):
         raise ValueError(
             f"gradient values have {values.shape[1]} components, the attribute needs {components}"
         )
+
+    def check_fits(self, name, components):
+        width = self.values.shape[1]
+        if width != components and not (width == 3 and components == 4):
+            raise ValueError(f"{name} has {width} components, the attribute needs {components}")
+
+    @property
+    def lowest(self):
+        return float(self.values.min())
 
     @property
     def mean(self):

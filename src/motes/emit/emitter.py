@@ -7,8 +7,9 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 from .. import _validate as check
+from ..particles import BUILTIN
 from .directions import Cone, Direction
-from .distributions import Constant, Distribution, as_distribution
+from .distributions import Distribution, as_distribution
 from .rates import PerSecond, Rate
 from .shapes import Point, Shape
 
@@ -37,11 +38,19 @@ class Path:
         return np.array([np.interp(t, self.times, self.points[:, k]) for k in range(3)])
 
 
-def _lower_bound(dist: Distribution) -> float | None:
-    if isinstance(dist, Constant):
-        return float(dist.value.min())
-    low = getattr(dist, "low", None)
-    return None if low is None else float(np.min(low))
+def _scalar_law(name: str, value, *, positive: bool = False, signed: bool = True) -> Distribution:
+    """``value`` as a distribution of single numbers, > 0 if ``positive``, >= 0 unless
+    ``signed``: a law one of whose samples could break that is refused here, so that no
+    emission (or image) fails later."""
+    law = as_distribution(name, value)
+    law.check_fits(name, 1)
+    low = law.lowest
+    if low is not None and ((positive and not low > 0) or (not signed and not low >= 0)):
+        bound = "> 0" if positive else ">= 0"
+        raise ValueError(
+            f"{name} must be {bound}, got a law whose least value is {low} (give it a low)"
+        )
+    return law
 
 
 class Emitter:
@@ -99,11 +108,8 @@ class Emitter:
         else:
             self._path = None
             self._position = check.vector("position", position)
-        self.lifetime = as_distribution("lifetime", lifetime)
-        low = _lower_bound(self.lifetime)
-        if low is not None and low <= 0:
-            raise ValueError(f"lifetime must be > 0 [s], got a minimum of {low}")
-        self.speed = as_distribution("speed", speed)
+        self.lifetime = _scalar_law("lifetime", lifetime, positive=True)
+        self.speed = _scalar_law("speed", speed)
         self.direction = Cone() if direction is None else direction
         if not isinstance(self.direction, Direction):
             raise TypeError(
@@ -119,10 +125,11 @@ class Emitter:
         ):
             if value is not None:
                 self.initial[name] = as_distribution(name, value)
+                self.initial[name].check_fits(name, BUILTIN[name].components)
         if "mass" in self.initial:
-            low = _lower_bound(self.initial["mass"])
-            if low is not None and low <= 0:
-                raise ValueError(f"mass must be > 0 [kg], got a minimum of {low}")
+            _scalar_law("mass", self.initial["mass"], positive=True)
+        if "size" in self.initial:  # a radius
+            _scalar_law("size", self.initial["size"], signed=False)
         for name, dist in (attributes or {}).items():
             self.initial[name] = as_distribution(name, dist)
         self._pool: dict[str, np.ndarray] | None = None

@@ -3,7 +3,7 @@
 cohesion and adhesion (Akinci et al. 2013), friction, and non-mixing phases."""
 
 from .boundaries import Box, MeshWall, Plane, Sphere, Tank
-from .fluid import Fluid, FluidState, lattice
+from .fluid import Fluid, FluidState, lattice, lattice_cells
 from .model import FluidModel, Phase
 
 __all__ = [
@@ -17,4 +17,5 @@ __all__ = [
     "Sphere",
     "Tank",
     "lattice",
+    "lattice_cells",
 ]

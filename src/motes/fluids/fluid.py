@@ -82,22 +82,36 @@ class FluidState:
         self.pressure = self.pressure[order]
 
 
+def lattice_cells(lower, upper, spacing: float) -> np.ndarray:
+    """Particles along x, y and z of :func:`lattice`'s box, as floats (3,).
+
+    Floats, so that a tiny spacing in a large box gives a large (or infinite) count
+    rather than an overflowed integer: callers compare ``prod`` with a limit before
+    allocating.
+    """
+    lower = _validate.vector("lower", lower)
+    upper = _validate.vector("upper", upper)
+    spacing = _validate.positive("spacing", spacing)
+    with np.errstate(over="ignore"):
+        return np.maximum(np.floor((upper - lower) / spacing + 1e-6), 0.0)
+
+
 def lattice(lower, upper, spacing: float) -> np.ndarray:
     """Particles on a cubic lattice filling the box ``[lower, upper]`` [m], shape (3, n).
 
     Cells of ``spacing`` tile the box from ``lower``; a particle sits at each cell's
     centre, so a block against a wall starts half a spacing from it.
     """
-    lower = _validate.vector("lower", lower)
-    upper = _validate.vector("upper", upper)
-    spacing = _validate.positive("spacing", spacing)
-    cells = np.floor((upper - lower) / spacing + 1e-6)
-    if np.all(cells >= 1):
-        total = float(np.prod(cells))
-        check_memory(f"spacing = {spacing:g} ({total:.0f} particles in the box)", total)
-    counts = cells.astype(int)
-    if np.any(counts < 1):
+    cells = lattice_cells(lower, upper, spacing)
+    lower, upper = np.asarray(lower, np.float64), np.asarray(upper, np.float64)
+    if np.any(cells < 1):
         raise ValueError(f"the box {lower.tolist()}-{upper.tolist()} holds no particle")
+    with np.errstate(over="ignore"):
+        total = float(np.prod(cells))
+    if total > np.iinfo(np.int64).max:
+        raise ValueError(f"the box {lower.tolist()}-{upper.tolist()} holds {total:.3g} particles")
+    check_memory(f"spacing = {spacing:g} ({total:.0f} particles in the box)", total)
+    counts = cells.astype(np.int64)
     axes = [lower[a] + (np.arange(counts[a]) + 0.5) * spacing for a in range(3)]
     grid = np.meshgrid(*axes, indexing="ij")
     return np.stack([g.ravel() for g in grid]).astype(np.float32)

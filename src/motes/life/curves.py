@@ -154,6 +154,8 @@ class SizeOverLife(_OverLife):
 
     def __init__(self, keys, *, multiply: bool = True):
         super().__init__(keys, multiply=multiply)
+        if np.any(self.curve.values < 0):
+            raise ValueError(f"keys must hold sizes >= 0, got {self.curve.values.min()}")
 
 
 @parallel_kernel

@@ -598,9 +598,14 @@ class Metaballs:
             upper = reached.max(axis=0) + margin
         else:
             origin, upper = _bounds(bounds)
-        shape = _shape(
-            np.floor((upper - origin) / self.cell_size).astype(np.int64) + 1, self.max_nodes
-        )
+        with np.errstate(over="ignore"):
+            cells = np.floor((upper - origin) / self.cell_size) + 1
+        shape = _shape(cells, self.max_nodes)
+        if min(shape) < 2 and bounds is None:
+            raise GridError(
+                f"the particles' coordinates (up to {np.abs(positions).max():.3g} m) are too "
+                f"large for cell_size={self.cell_size:g}: no cell fits between them"
+            )
         if min(shape) < 2:
             raise ValueError(
                 f"bounds must span at least one cell_size along each axis, got {shape}"
@@ -728,18 +733,29 @@ def _positions(positions) -> np.ndarray:
     return _validate.points("positions", positions, min_rows=0)
 
 
+class GridError(ValueError):
+    """The field's grid cannot be laid: it would exceed ``max_nodes`` (the particles
+    spread too far for the cell size, or the cell is too small for the bounds), or the
+    particles sit so far out that the cell size vanishes beside their coordinates."""
+
+
 def _shape(shape, max_nodes: int) -> tuple[int, int, int]:
-    values = tuple(int(s) for s in np.asarray(shape).reshape(-1))
-    if len(values) != 3 or min(values) < 1:
+    """Node counts along x, y, z, refused past ``max_nodes`` in all. Counts may come as
+    floats (a wide spread over a small cell is counted without integer overflow)."""
+    counts = np.asarray(shape, dtype=np.float64).reshape(-1)
+    if len(counts) != 3 or not np.all(counts >= 1) or np.any(counts != np.floor(counts)):
         raise ValueError(f"shape must be 3 node counts >= 1, got {shape}")
-    nodes = math.prod(values)
+    with np.errstate(over="ignore"):
+        nodes = float(np.prod(counts))
     if nodes > max_nodes:
         grow = (nodes / max_nodes) ** (1.0 / 3.0)
-        raise ValueError(
-            f"the grid would have {nodes:,} nodes {values}, more than max_nodes={max_nodes:,}: "
-            f"use a cell_size at least {grow:.2f}x larger, tighter bounds, or raise max_nodes"
+        shown = tuple(int(c) if math.isfinite(c) else c for c in counts)
+        raise GridError(
+            f"the grid would have {nodes:,.0f} nodes {shown}, more than "
+            f"max_nodes={max_nodes:,}: use a cell_size at least {grow:.3g}x larger, tighter "
+            "bounds, or raise max_nodes"
         )
-    return values
+    return tuple(int(c) for c in counts)
 
 
 def _bounds(bounds) -> tuple[np.ndarray, np.ndarray]:

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..state import ParticleState
-from .schema import SceneError, Table, one_of
+from .schema import SceneError, Table, one_of, shown
 
 
 class Body(ABC):
@@ -54,9 +54,8 @@ class Body(ABC):
         :class:`~motes.collide.between.KindContact`), from a ``[[system.contact]]`` table
         at ``path``; bodies that particles cannot collide with refuse, naming themselves.
         """
-        raise SceneError(
-            path, f"emitter particles cannot collide with body {name!r} ({type(self).__name__})"
-        )
+        kind = type(self).__name__
+        raise SceneError(path, f"emitter particles cannot collide with body {shown(name)} ({kind})")
 
 
 @dataclass
@@ -121,5 +120,5 @@ def build_body(table: Table, context: BuildContext) -> tuple[str, Body]:
 
 def _name(value, path):
     if not isinstance(value, str) or not value:
-        raise SceneError(path, f"must be a non-empty string, got {value!r}")
+        raise SceneError(path, f"must be a non-empty string, got {shown(value)}")
     return value

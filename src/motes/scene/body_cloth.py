@@ -4,8 +4,9 @@ A cloth draws as a shaded mesh (the renderer lights both sides: normals are turn
 the viewer), hair as lines over a head sphere with a nose and eyes so that turning and
 nodding show. A cloth stepped explicitly may blow up: it is always drawn with
 each particle clamped to within ``blowup_distance`` of its start (so an explosion stays on
-screen as a spiky mess), and once the state is non-finite or 1000 times that far it
-stops stepping and is drawn in ``diverged_color``.
+screen as a spiky mess), and once the state is non-finite or 1000 times that far, or
+the implicit solve fails (:class:`~motes.integrate.implicit.SolverError`), it stops
+stepping and is drawn in ``diverged_color``.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import numpy as np
 
 from ..cloth import Airflow, Cloth, Keyframes, SpringFamily
 from ..hair import Hair, Head
-from ..integrate.implicit import ImplicitEuler
+from ..integrate.implicit import ImplicitEuler, SolverError
 from ..render import geometry
 from ..render.shading import Material
 from .bodies import Body, BuildContext, register
@@ -31,8 +32,23 @@ from .schema import (
     one_of,
     positive,
     scene_file,
+    shown,
     vector,
 )
+
+#: Most particles along either side of a grid cloth (10⁸ in all, a system's capacity).
+GRID_MAX = 10_000
+
+
+def _pair(reader):
+    """An array of two values, each read by ``reader``."""
+
+    def read(value, path):
+        if not isinstance(value, list) or len(value) != 2:
+            raise SceneError(path, f"must be an array of two values, got {shown(value)}")
+        return tuple(reader(v, f"{path}[{i}]") for i, v in enumerate(value))
+
+    return read
 
 
 def _family(value, path) -> SpringFamily:
@@ -45,7 +61,7 @@ def _solver(table: Table, tolerance: float) -> ImplicitEuler:
         table.path,
         ImplicitEuler,
         tolerance=table.get("tolerance", number(0.0, 1.0, low_open=True), tolerance),
-        max_iterations=table.get("max_iterations", integer(1), 500),
+        max_iterations=table.get("max_iterations", integer(1, 100_000), 500),
     )
 
 
@@ -59,7 +75,7 @@ def _keyframes(table: Table, values: str) -> Keyframes:
 def _airflow(table: Table, seed: int) -> Airflow:
     options = {
         "gust": table.get("gust", number(0.0, 1.0), 0.0),
-        "gusts": table.get("gusts", integer(0), 3),
+        "gusts": table.get("gusts", integer(0, 64), 3),
         "air_density": table.get("air_density", positive(), 1.2),
         "drag": table.get("drag", number(0.0), 1.0),
         "lift": table.get("lift", number(0.0), 0.6),
@@ -89,10 +105,14 @@ class ClothBody(Body):
         if self.diverged_at is not None:
             return
         with np.errstate(all="ignore"):
-            self.cloth.step(dt)
+            try:
+                self.cloth.step(dt)
+                broke = False
+            except SolverError:  # the implicit solve broke down on a diverging state
+                broke = True
             offset = self.cloth.position - self._start
             moved = np.abs(offset).max()
-        if self.cloth.diverged or not moved < 1e3 * self.blowup:
+        if broke or self.cloth.diverged or not moved < 1e3 * self.blowup:
             self.diverged_at = self.cloth.time
         # Drawn clamped to within ``blowup`` of the start (non-finite values at the
         # start): an exploding cloth shows as a spiky mess that stays on screen.
@@ -135,22 +155,23 @@ def _pins(table: Table, cloth: Cloth, grid: bool) -> None:
                     f"must be a grid cell [row, column] inside {ny} x {nx}, got {[r, c]}",
                 )
             cloth.pin(cloth.grid_index(int(r), int(c)))
-    pinned = table.get("pin_vertices", array_of(integer(0)), [])
+    vertex = integer(0, cloth.n - 1)
+    pinned = table.get("pin_vertices", array_of(vertex), [])
     if pinned:
-        if max(pinned) >= cloth.n:
-            raise SceneError(table.key_path("pin_vertices"), f"must be < {cloth.n}")
         cloth.pin(pinned)
     for t in table.tables("handle"):
         if grid:
-            row = t.get("row", integer(), 0)
-            first, last = t.get("columns", vector(2), (0, cloth.grid_shape[1] - 1))
-            count = abs(int(last) - int(first)) + 1
-            cols = np.linspace(first, last, count).round().astype(int)
+            ny, nx = cloth.grid_shape
+            row = t.get("row", integer(-ny, ny - 1), 0)
+            first, last = t.get("columns", _pair(integer(-nx, nx - 1)), (0, nx - 1))
+            first, last = first % nx, last % nx  # negative counts from the end
+            step = 1 if last >= first else -1
+            cols = np.arange(first, last + step, step)
             idx = cloth.grid_index(row, cols)
             taper = t.get("taper", boolean, False)
-            weights = np.linspace(0.0, 1.0, count) if taper else None
+            weights = np.linspace(0.0, 1.0, len(cols)) if taper else None
         else:
-            idx = np.asarray(t.get("vertices", array_of(integer(0), min_length=1)))
+            idx = np.asarray(t.get("vertices", array_of(vertex, min_length=1)))
             weights = None
         path = _keyframes(t, "offsets")
         cloth.move(idx, path, weights=weights)
@@ -168,7 +189,7 @@ def build_cloth(table: Table, context: BuildContext) -> ClothBody:
         "air_damping": table.get("air_damping", number(0.0), 0.1),
         "thickness": table.get("thickness", number(0.0), 0.005),
         "strain_limit": table.get("strain_limit", number(0.0), 0.1) or None,
-        "strain_iterations": table.get("strain_iterations", integer(1), 50),
+        "strain_iterations": table.get("strain_iterations", integer(1, 10_000), 50),
         "scheme": table.get(
             "scheme",
             one_of("implicit_euler", "explicit_euler", "semi_implicit_euler"),
@@ -185,8 +206,11 @@ def build_cloth(table: Table, context: BuildContext) -> ClothBody:
     grid = table.has("grid")
     if grid:
         nx, ny = table.get("grid", vector(2))
-        if nx != int(nx) or ny != int(ny) or nx < 2 or ny < 2:
-            raise SceneError(table.key_path("grid"), f"must be two integers >= 2, got {[nx, ny]}")
+        if nx != int(nx) or ny != int(ny) or not (2 <= min(nx, ny) <= max(nx, ny) <= GRID_MAX):
+            raise SceneError(
+                table.key_path("grid"),
+                f"must be two integers >= 2, at most {GRID_MAX} each, got {[nx, ny]}",
+            )
         cloth = build(
             table.path,
             Cloth.grid,
@@ -306,8 +330,8 @@ def build_hair(table: Table, context: BuildContext) -> HairBody:
         table.path,
         Hair,
         head,
-        strands=table.get("strands", integer(1), 500),
-        particles=table.get("particles", integer(3), 10),
+        strands=table.get("strands", integer(1, 100_000), 500),
+        particles=table.get("particles", integer(3, 1000), 10),
         length=table.get("length", positive(), 0.25),
         length_variation=table.get("length_variation", number(0.0, 1.0, high_open=True), 0.0),
         comb=table.get("comb", vector(), (0.0, -1.0, -1.0)),

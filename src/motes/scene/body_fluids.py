@@ -37,17 +37,27 @@ from .schema import (
 
 WATER = (0.25, 0.45, 0.75)
 
+#: Shortest ``max_dt`` [s]: a scene step of up to 1 s (fps >= 1) splits into at most 10⁵.
+MIN_DT = 1e-5
+
 
 class _Nozzle:
     """Emits a disc of particles (a square pattern of ``spacing``) each time the last
     layer has moved one spacing away: the flow rate follows from speed and radius."""
 
-    def __init__(self, position, velocity, radius, spacing, phase, start, stop):
+    def __init__(self, position, velocity, radius, spacing, phase, start, stop, *, limit):
         self.position = np.asarray(position, np.float64)
         self.velocity = np.asarray(velocity, np.float64)
         speed = float(np.linalg.norm(self.velocity))
         if speed == 0.0:
             raise ValueError("velocity must be non-zero")
+        # About π (r / s)² particles a layer: refused before the pattern is allocated.
+        layer = math.pi * (radius / spacing) * (radius / spacing)  # inf, not OverflowError
+        if layer > limit:
+            raise ValueError(
+                f"radius {radius:g} makes layers of about {layer:.3g} particles at spacing "
+                f"{spacing:g}, more than max_particles = {limit}"
+            )
         axis = self.velocity / speed
         helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
         u = np.cross(axis, helper)
@@ -259,11 +269,13 @@ class _TankWalls:
 
     def __init__(self, tank, thickness, rgb):
         self.tank, self.thickness, self.rgb = tank, thickness, rgb
+        # The extents at rest: a tank shaken far out would lose them to round-off.
+        self.size = np.asarray(tank.upper - tank.lower, dtype=np.float64)
 
     def boxes(self):
         lo, hi, t = self.tank.lower, self.tank.upper, self.thickness
         c = 0.5 * (lo + hi)
-        size = hi - lo
+        size = self.size
         slabs = [
             ((c[0], lo[1] - t / 2, c[2]), (size[0] + 2 * t, t, size[2] + 2 * t)),
             ((lo[0] - t / 2, c[1], c[2]), (t, size[1], size[2] + 2 * t)),
@@ -282,7 +294,7 @@ def build_fluid(table: Table, context: BuildContext) -> FluidBody:
     walls = [_wall(item, drawn, shakes, context.base) for item in table.tables("wall")]
     settings = {
         "kernel_ratio": table.get("kernel_ratio", number(), 2.0),
-        "iterations": table.get("iterations", integer(), 4),
+        "iterations": table.get("iterations", integer(1, 1000), 4),
         "xsph": table.get("xsph", number(), 0.01),
         "viscosity": table.get("viscosity", number(), 0.0),
         "viscosity_width": table.get("viscosity_width", positive(), None),
@@ -290,18 +302,31 @@ def build_fluid(table: Table, context: BuildContext) -> FluidBody:
         "tensile": table.get("tensile", number(), 0.0),
         "vorticity": table.get("vorticity", number(), 0.0),
         "relaxation": table.get("relaxation", number(), 0.01),
-        "max_dt": table.get("max_dt", number(), 1.0 / 240.0),
+        "max_dt": table.get("max_dt", number(MIN_DT), 1.0 / 240.0),
         "gravity": table.get("gravity", vector(), (0.0, -9.81, 0.0)),
     }
     model = build(table.path, fluids.FluidModel, spacing=spacing, phases=phases,
                   boundaries=tuple(walls), **settings)  # fmt: skip
+    limit = table.get("max_particles", integer(1, 100_000_000), 20_000)
     positions, velocities, phase = [], [], []
+    placed = 0
     for item in table.tables("block"):
         lower = item.get("lower", vector())
         upper = item.get("upper", vector())
         index = item.get("phase", integer(0, len(phases) - 1), 0)
         speed = item.get("velocity", vector(), (0.0, 0.0, 0.0))
+        # The blocks together hold at most max_particles: counted before allocating.
+        with np.errstate(over="ignore"):
+            count = float(np.prod(build(item.path, fluids.lattice_cells, lower, upper, spacing)))
+        if placed + count > limit:
+            before = f" with the {placed} of the blocks before" if placed else ""
+            raise SceneError(
+                item.path,
+                f"holds {count:.3g} particles at spacing {spacing:g}{before}, more than "
+                f"max_particles = {limit}",
+            )
         block = build(item.path, fluids.lattice, lower, upper, spacing)
+        placed += block.shape[1]
         positions.append(block)
         velocities.append(np.repeat(np.asarray(speed)[:, None], block.shape[1], axis=1))
         phase.append(np.full(block.shape[1], index, np.int32))
@@ -315,10 +340,10 @@ def build_fluid(table: Table, context: BuildContext) -> FluidBody:
                 item.get("radius", positive()), spacing,
                 item.get("phase", integer(0, len(phases) - 1), 0),
                 item.get("start", number(0.0), 0.0), item.get("stop", number(0.0), math.inf),
+                limit=limit,
             )
         )  # fmt: skip
         item.finish()
-    limit = table.get("max_particles", integer(1), 20_000)
     if nozzles:  # sources fill the liquid up to the limit: it must fit
         build(table.key_path("max_particles"), check_memory, f"max_particles = {limit}", limit)
     forces = body_forces(table)
@@ -328,12 +353,9 @@ def build_fluid(table: Table, context: BuildContext) -> FluidBody:
                              phase=np.concatenate(phase), forces=forces)  # fmt: skip
     else:
         fluid = fluids.Fluid(model, np.zeros((3, 0)), forces=forces)
-    if len(fluid) > limit:
-        raise SceneError(table.key_path("max_particles"),
-                         f"the blocks hold {len(fluid)} particles, more than {limit}")  # fmt: skip
     look = _look(table.table("render", optional=True), spacing)
     floats = table.tables("float")
-    floating = _Floating(fluid, walls, floats) if floats else None
+    floating = _Floating(fluid, walls, floats, table.key_path("float")) if floats else None
     return FluidBody(fluid, colors=colors, nozzles=nozzles, shakes=shakes,
                      walls=_WallList(drawn), look=look, limit=limit,
                      floating=floating)  # fmt: skip
@@ -344,7 +366,7 @@ class _Floating:
     ways (:class:`~motes.couple.fluid_rigid.FloatingBodies`); the liquid's tanks and
     planes are its colliders."""
 
-    def __init__(self, fluid, walls, tables):
+    def __init__(self, fluid, walls, tables, path: str):
         from ..collide.colliders import Plane
         from ..couple.fluid_rigid import FloatingBodies
         from ..rigid import World
@@ -364,7 +386,7 @@ class _Floating:
             bodies.append((self.world.add_body(shape), size))
             self.looks.append((np.asarray(size), item.get("color", color, (0.6, 0.45, 0.3))))
             item.finish()
-        self.pair = FloatingBodies(fluid, self.world, bodies)
+        self.pair = build(path, FloatingBodies, fluid, self.world, bodies)
 
     def step(self, dt: float) -> None:
         self.pair.step(dt)

@@ -119,6 +119,12 @@ def read_world(table: Table, context: BuildContext) -> rigid.World:
     return world
 
 
+def _box(table: Table, center, size, mass: float) -> rigid.BodyShape:
+    """A box body of a set-up; sizes that vanish beside large coordinates (no volume left
+    in floating point) are refused at the body."""
+    return build(table.path, rigid.BodyShape.box, center, size, mass)
+
+
 def _step_box(center, size, tint):
     collider = BoxCollider(center, size, friction=0.6)
     return collider, geometry.Box(center, size, color=tint)
@@ -180,7 +186,7 @@ def rope_bridge(table: Table, context: BuildContext) -> RigidScene:
     corners = []
     for k in range(planks):
         x = -span / 2 + pitch * (k + 0.5)
-        body = world.add_body(rigid.BodyShape.box((x, height, 0.0), size, 5.0), group=0)
+        body = world.add_body(_box(table, (x, height, 0.0), size, 5.0), group=0)
         scene.boxes.append((body.index, size, (0.55, 0.38, 0.22)))
         corners.append(body.particles)
     # Ropes along both edges: each plank's +x corners to the next plank's -x corners,
@@ -221,7 +227,7 @@ def rope_bridge(table: Table, context: BuildContext) -> RigidScene:
     for k in range(box_count):
         x = -span / 2 + pitch * (round((k + 1) * planks / (box_count + 1)) + 0.5)
         c = (x, height + drop + 0.6 * k, 0.05 * (k % 2))
-        body = world.add_body(rigid.BodyShape.box(c, (box_size,) * 3, 4.0))
+        body = world.add_body(_box(table, c, (box_size,) * 3, 4.0))
         scene.boxes.append((body.index, np.full(3, box_size), _BOX_COLORS[k % 4]))
     return scene
 
@@ -281,7 +287,7 @@ def box_tower(table: Table, context: BuildContext) -> RigidScene:
     for k in range(levels):
         for j, dx in enumerate((-0.5 * size - gap, 0.5 * size + gap) if k % 2 == 0 else (0.0,)):
             c = (dx, (k + 0.5) * (size + gap), 0.0)
-            body = world.add_body(rigid.BodyShape.box(c, (size,) * 3, 1.0))
+            body = world.add_body(_box(table, c, (size,) * 3, 1.0))
             scene.boxes.append((body.index, np.full(3, size), _BOX_COLORS[(k + j) % 4]))
     ball = world.add_body(rigid.BodyShape.box((-6.0, 1.0, 0.0), (0.4,) * 3, 20.0))
     scene.boxes.append((ball.index, np.full(3, 0.4), (0.25, 0.25, 0.28)))

@@ -31,9 +31,11 @@ from .schema import (
     build,
     color,
     integer,
+    listed,
     number,
     one_of,
     positive,
+    shown,
     string,
     vector,
 )
@@ -219,7 +221,7 @@ def rigid_world(table: Table, context: BuildContext) -> RigidAssembly:
             name = item.get("name", string, None)
             if name is not None and (name in parts or not name or "." in name):
                 reason = "is used by another part" if name in parts else "must be non-empty, no '.'"
-                raise SceneError(item.key_path("name"), f"{reason}: {name!r}")
+                raise SceneError(item.key_path("name"), f"{reason}: {shown(name)}")
             part = add(item, world, scene, k, groups.get(name))
             item.finish()
             if name is not None:
@@ -270,15 +272,16 @@ def _endpoint(value, path, world, parts: dict[str, _Part]):
     text = string(value, path)
     name, _, which = text.partition(".")
     if name not in parts:
-        known = ", ".join(repr(n) for n in parts) or "none (give parts a name)"
-        raise SceneError(path, f"no part named {name!r}; named parts: {known}")
+        known = listed(parts) or "none (give parts a name)"
+        raise SceneError(path, f"no part named {shown(name)}; named parts: {known}")
     part = parts[name]
     if not which:
         if len(part.particles) != 1:
             raise SceneError(
                 path,
-                f"{name!r} is a {part.kind} of {len(part.particles)} particles: name one, "
-                f"e.g. '{name}.0'" + (f" or '{name}.head'" if part.joints else ""),
+                f"{shown(name)} is a {part.kind} of {len(part.particles)} particles: name one, "
+                f"e.g. {shown(name + '.0')}"
+                + (f" or {shown(name + '.head')}" if part.joints else ""),
             )
         return int(part.particles[0])
     if which in part.joints:
@@ -289,11 +292,11 @@ def _endpoint(value, path, world, parts: dict[str, _Part]):
         allowed = f"an index in [-{len(part.particles)}, {len(part.particles) - 1}]"
         if part.joints:
             allowed += " or one of " + ", ".join(part.joints)
-        raise SceneError(path, f"{text!r}: {which!r} is not {allowed}") from None
+        raise SceneError(path, f"{shown(text)}: {shown(which)} is not {allowed}") from None
     if not -len(part.particles) <= index < len(part.particles):
         raise SceneError(
             path,
-            f"{text!r}: {name!r} has particles 0 to {len(part.particles) - 1} "
+            f"{shown(text)}: {shown(name)} has particles 0 to {len(part.particles) - 1} "
             f"(negative from the end), got {index}",
         )
     return int(part.particles[index])
@@ -304,7 +307,7 @@ def _spring(table: Table, world, scene: RigidAssembly, parts) -> None:
     stiffness does not depend on the iteration count or the step."""
     ends = table.get("between", array_of(lambda v, p: v, min_length=2))
     if len(ends) != 2:
-        raise SceneError(table.key_path("between"), f"must be [a, b], got {ends!r}")
+        raise SceneError(table.key_path("between"), f"must be [a, b], got {shown(ends)}")
     a, b = (
         _endpoint(v, f"{table.key_path('between')}[{i}]", world, parts) for i, v in enumerate(ends)
     )
@@ -327,16 +330,16 @@ def _joint(table: Table, world, scene: RigidAssembly, parts, groups) -> None:
     names = table.get("bodies", array_of(string, min_length=1))
     if len(names) > 2 or len(set(names)) != len(names):
         raise SceneError(
-            table.key_path("bodies"), f"must be one or two different part names, got {names}"
+            table.key_path("bodies"), f"must be one or two different part names, got {shown(names)}"
         )
     bodies = []
     for i, name in enumerate(names):
         part = parts.get(name)
         if part is None or not part.body:
-            solid = ", ".join(repr(n) for n, p in parts.items() if p.body) or "none"
+            solid = listed(n for n, p in parts.items() if p.body) or "none"
             raise SceneError(
                 f"{table.key_path('bodies')}[{i}]",
-                f"{name!r} is not a named box or tetrahedron; those named: {solid}",
+                f"{shown(name)} is not a named box or tetrahedron; those named: {solid}",
             )
         bodies.append(part.particles)
     at = np.asarray(table.get("at", vector()), dtype=float)

@@ -2,16 +2,18 @@
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numpy as np
 
 from ..io.frames import read_image
 from ..render import geometry
-from ..render.metaballs import Metaballs
+from ..render.metaballs import GridError, Metaballs
 from ..render.renderer import Renderer, background_from
 from ..render.shading import AmbientLight, DirectionalLight, Material, default_lights
 from ..render.sprites import SpriteStyle
 from .looks import ParticleLook, SceneObject, SurfaceLook
-from .schema import SceneError
+from .schema import SceneError, key_name
 
 
 class SceneRenderer:
@@ -49,11 +51,23 @@ class SceneRenderer:
         systems = [(scene.systems[name], style) for name, style in self.styles.items()]
         objects = list(self.objects)
         for name, surface in self.surfaces.items():
-            objects.extend(surface.drawables(scene.systems[name]))
-        for body in scene.bodies.values():
-            systems.extend(body.particles())
-            objects.extend(body.drawables())
+            with _surface_of(f"system.{key_name(name)}.render", scene):
+                objects.extend(surface.drawables(scene.systems[name]))
+        for name, body in scene.bodies.items():
+            with _surface_of(f"body.{key_name(name)}", scene):
+                systems.extend(body.particles())
+                objects.extend(body.drawables())
         return self.renderer.render(systems, objects)
+
+
+@contextmanager
+def _surface_of(path: str, scene):
+    """A metaball surface whose particles spread too far for its grid: a SceneError at
+    ``path`` (which cell size, or which escaped particles, is the scene's to change)."""
+    try:
+        yield
+    except GridError as error:
+        raise SceneError(path, f"cannot draw its surface in frame {scene.frame}: {error}") from None
 
 
 class _Surface:

@@ -30,6 +30,7 @@ from .schema import (
     one_of,
     positive,
     scene_file,
+    shown,
     vector,
 )
 
@@ -40,10 +41,12 @@ MESH_SUFFIXES = (".obj", ".ply")
 
 
 def _plain_value(value, path):
-    """A number, an array of numbers, or a colour string."""
+    """A number, an array of 1 to 4 numbers (a vector, RGB or RGBA), or a colour string."""
     if isinstance(value, str):
         return color(value, path)
     if isinstance(value, list):
+        if not 1 <= len(value) <= 4:
+            raise SceneError(path, f"must be a number or 1 to 4 numbers, got {shown(value)}")
         return tuple(number()(v, f"{path}[{i}]") for i, v in enumerate(value))
     return number()(value, path)
 
@@ -85,7 +88,7 @@ def distribution(value, path):
 
 def _pair_only(table: Table, key: str) -> None:
     if len(table.data[key]) != 2:
-        raise SceneError(table.key_path(key), f"must be [a, b], got {table.data[key]!r}")
+        raise SceneError(table.key_path(key), f"must be [a, b], got {shown(table.data[key])}")
 
 
 # --- emission -----------------------------------------------------------------------------

@@ -17,6 +17,7 @@ import numpy as np
 from .. import hierarchy
 from ..collide.colliders import Collider
 from ..finite import check_finite
+from ..integrate.implicit import SolverError
 from ..render.camera import Camera, Projection
 from ..state import ParticleState
 from ..system import ParticleSystem
@@ -35,10 +36,12 @@ from .schema import (
     color,
     file_name,
     integer,
+    key_name,
     number,
     one_of,
     positive,
     scene_file,
+    shown,
     string,
     vector,
 )
@@ -124,14 +127,33 @@ class Scene:
         return self.frame / self.fps
 
     def advance(self) -> None:
-        """Simulate one frame: ``substeps`` steps of ``1 / (fps · substeps)`` s."""
+        """Simulate one frame: ``substeps`` steps of ``1 / (fps · substeps)`` s.
+
+        A system or body whose simulation diverges (positions no longer finite, an
+        implicit solve that breaks down) raises :class:`SceneError` naming it: its
+        parameters do not suit the step. A cloth does not: it stops and is drawn as
+        diverged.
+        """
         dt = 1.0 / (self.fps * self.substeps)
+        frame = self.frame + 1
         for _ in range(self.substeps):
             for system in self.roots:
                 system.step(dt)
-            for body in self.bodies.values():
-                body.step(dt)
-        self.frame += 1
+            for name, body in self.bodies.items():
+                try:
+                    body.step(dt)
+                except (SolverError, FloatingPointError) as error:
+                    raise SceneError(
+                        f"body.{key_name(name)}", f"diverged in frame {frame}: {error}"
+                    ) from error
+        for name, system in self.systems.items():
+            if not np.isfinite(system["position"]).all():
+                raise SceneError(
+                    f"system.{key_name(name)}",
+                    f"diverged in frame {frame}: particle positions are no longer finite (a "
+                    "force too strong, or a step too long, for the integrator)",
+                )
+        self.frame = frame
         if self.check_finite:
             self._check_finite()
 
@@ -226,6 +248,9 @@ def load_scene(
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise SceneError(origin, f"not valid TOML: {error}") from None
+    except RecursionError:
+        # tomllib parses nested arrays and inline tables recursively.
+        raise SceneError(origin, "not valid TOML: arrays or tables nested too deeply") from None
     overrides = dict(overrides or {})
     apply_overrides(data, overrides)
     scene = _build_scene(Table(data, ""), origin, base, seed)
@@ -378,6 +403,9 @@ def _look(table: Table | None, base: Path) -> ParticleLook:
     return look
 
 
+#: An opaque box's full extents [m], each > 0.
+_sizes = array_of(positive(), length=3)
+
 _OBJECT_KEYS = {
     "ground": {
         "height": number(),
@@ -386,7 +414,7 @@ _OBJECT_KEYS = {
         "checker_size": positive(),
     },
     "sphere": {"center": vector(), "radius": positive()},
-    "box": {"center": vector(), "size": vector(), "rotation": vector()},
+    "box": {"center": vector(), "size": lambda v, p: tuple(_sizes(v, p)), "rotation": vector()},
 }
 
 
@@ -467,7 +495,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
     for t, seq in zip(system_tables, seeds[: len(system_tables)], strict=True):
         system_name = t.get("name", string)
         if system_name in systems:
-            raise SceneError(t.key_path("name"), f"duplicate system name {system_name!r}")
+            raise SceneError(t.key_path("name"), f"duplicate system name {shown(system_name)}")
         system = build(
             t.path,
             ParticleSystem,
@@ -520,7 +548,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         context = BuildContext(camera, base, int(seq.generate_state(1)[0]), list(shared))
         body_name, body = build_body(t, context)
         if body_name in systems or body_name in bodies:
-            raise SceneError(t.key_path("name"), f"duplicate name {body_name!r}")
+            raise SceneError(t.key_path("name"), f"duplicate name {shown(body_name)}")
         bodies[body_name] = body
 
     for system, c in pending_contacts:
@@ -559,21 +587,21 @@ def _contact(table: Table, bodies: dict[str, Body]):
 
 
 def _no_bodies(value, path):
-    raise SceneError(path, f"names body {value!r}, but the scene has no [[body]]")
+    raise SceneError(path, f"names body {shown(value)}, but the scene has no [[body]]")
 
 
 def _refuse_mesh(collider, path: str, system_name: str, *, shared: bool = False) -> None:
     """Emitter systems collide in the fused step kernel, which has no triangle meshes."""
     if parts.is_mesh_collider(collider):
         hint = (
-            f"set shared_colliders = false in system {system_name!r}, or use the mesh "
+            f"set shared_colliders = false in system {shown(system_name)}, or use the mesh "
             "with bodies only"
             if shared
             else "use planes, spheres or boxes here"
         )
         raise SceneError(
             path,
-            f"a triangle-mesh collider cannot act on the emitter system {system_name!r} "
+            f"a triangle-mesh collider cannot act on the emitter system {shown(system_name)} "
             f"(meshes collide with rigid, cloth and fluid bodies only); {hint}",
         )
 

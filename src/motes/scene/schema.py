@@ -10,6 +10,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
+import reprlib
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -32,6 +33,30 @@ _REQUIRED = object()
 Reader = Callable[[Any, str], Any]
 
 
+def _short_repr() -> reprlib.Repr:
+    short = reprlib.Repr()
+    short.maxlevel, short.maxlist, short.maxdict = 3, 6, 6
+    short.maxstring = short.maxother = 60
+    short.maxlong = 24
+    return short
+
+
+_SHORT = _short_repr()
+
+
+def shown(value) -> str:
+    """``repr(value)``, shortened (``[0, 0, 0, 0, 0, 0, ...]``, ``'xxxx...xxxx'``): a
+    message must stay one readable line whatever the file holds."""
+    return _SHORT.repr(value)
+
+
+def listed(items, limit: int = 12) -> str:
+    """``'a', 'b', 'c'``: the items shown and comma-separated, at most ``limit`` of them."""
+    items = list(items)
+    text = ", ".join(shown(item) for item in items[:limit])
+    return text + f", ... ({len(items)} in all)" if len(items) > limit else text
+
+
 def _kind(value) -> str:
     return {
         bool: "boolean",
@@ -48,13 +73,13 @@ class Table:
 
     def __init__(self, data, path: str):
         if not isinstance(data, dict):
-            raise SceneError(path, f"must be a table, got {_kind(data)} {data!r}")
+            raise SceneError(path, f"must be a table, got {_kind(data)} {shown(data)}")
         self.data = data
         self.path = path
         self.allowed: list[str] = []
 
     def key_path(self, key: str) -> str:
-        return f"{self.path}.{key}" if self.path else key
+        return f"{self.path}.{key_name(key)}" if self.path else key_name(key)
 
     def has(self, key: str) -> bool:
         if key not in self.allowed:
@@ -82,7 +107,7 @@ class Table:
             if typo not in self.allowed and key in close_matches(typo, [key]):
                 raise SceneError(self.key_path(typo), f"unknown key; did you mean {key!r}?")
         unread = [k for k in self.data if k not in self.allowed]
-        found = f" (this table has {', '.join(map(repr, unread))})" if unread else ""
+        found = f" (this table has {listed(unread)})" if unread else ""
         raise SceneError(self.key_path(key), f"is required{found}")
 
     def tables(self, key: str) -> list[Table]:
@@ -108,6 +133,15 @@ class Table:
             )
 
 
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]{1,60}")
+
+
+def key_name(key: str) -> str:
+    """``key`` as it appears in a key path: bare, or quoted and shortened when TOML
+    would need quotes for it (a key may hold dots, spaces, line breaks, or be long)."""
+    return key if _BARE_KEY.fullmatch(key) else shown(key)
+
+
 def close_matches(word: str, choices) -> list[str]:
     """The choices ``word`` is probably a misspelling of, best first."""
     return difflib.get_close_matches(word, list(choices), n=3, cutoff=0.6)
@@ -121,33 +155,58 @@ def build(path: str, factory: Callable, *args, **kwargs):
     """
     try:
         return factory(*args, **kwargs)
+    except SceneError:
+        raise  # a reader inside the factory named its key already
     except (ValueError, TypeError) as error:
-        message = str(error)
+        message = _clipped(str(error))
         first = message.split(" ", 1)[0]
         if first in kwargs:
             raise SceneError(f"{path}.{first}", message) from None
         raise SceneError(path, message) from None
 
 
+def _clipped(message: str, limit: int = 400) -> str:
+    """A library message on one line of at most ``limit`` characters (constructors quote
+    the values they were given, which a file can make as long as it likes)."""
+    message = " ".join(message.split())
+    if len(message) <= limit:
+        return message
+    return f"{message[: limit - 80]} ... {message[-70:]}"
+
+
 # --- scalar readers -----------------------------------------------------------------------
+
+
+#: Magnitudes a scene number may have besides 0: the number, its square and its inverse
+#: are then normal float32 values (particle attributes are float32), so no value in a
+#: file overflows, or turns into 0 or inf, on its way into a kernel.
+SMALLEST, LARGEST = 1e-18, 1e18
 
 
 def number(
     low: float | None = None, high: float | None = None, *, low_open=False, high_open=False
 ) -> Reader:
-    """A finite number (integers accepted) in the given range."""
+    """A finite number (integers accepted) in the given range, 0 or of magnitude in
+    [:data:`SMALLEST`, :data:`LARGEST`]."""
 
     def read(value, path):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise SceneError(path, f"must be a number, got {_kind(value)} {value!r}")
-        x = float(value)
-        if not math.isfinite(x):
-            raise SceneError(path, f"must be finite, got {x}")
-        if low is not None and (x < low or (low_open and x == low)):
-            raise SceneError(path, f"must be {'>' if low_open else '>='} {low}, got {value!r}")
-        if high is not None and (x > high or (high_open and x == high)):
-            raise SceneError(path, f"must be {'<' if high_open else '<='} {high}, got {value!r}")
-        return x
+            raise SceneError(path, f"must be a number, got {_kind(value)} {shown(value)}")
+        if isinstance(value, float) and not math.isfinite(value):
+            raise SceneError(path, f"must be finite, got {value}")
+        if low is not None and (value < low or (low_open and value == low)):
+            sign = ">" if low_open else ">="
+            raise SceneError(path, f"must be {sign} {low}, got {shown(value)}")
+        if high is not None and (value > high or (high_open and value == high)):
+            sign = "<" if high_open else "<="
+            raise SceneError(path, f"must be {sign} {high}, got {shown(value)}")
+        if value != 0 and not SMALLEST <= abs(value) <= LARGEST:
+            raise SceneError(
+                path,
+                f"must be 0 or between {SMALLEST:g} and {LARGEST:g} in magnitude (motes "
+                f"computes in float32), got {shown(value)}",
+            )
+        return float(value)
 
     return read
 
@@ -159,11 +218,11 @@ def positive() -> Reader:
 def integer(low: int | None = None, high: int | None = None) -> Reader:
     def read(value, path):
         if isinstance(value, bool) or not isinstance(value, int):
-            raise SceneError(path, f"must be an integer, got {_kind(value)} {value!r}")
+            raise SceneError(path, f"must be an integer, got {_kind(value)} {shown(value)}")
         if low is not None and value < low:
-            raise SceneError(path, f"must be >= {low}, got {value}")
+            raise SceneError(path, f"must be >= {low}, got {shown(value)}")
         if high is not None and value > high:
-            raise SceneError(path, f"must be <= {high}, got {value}")
+            raise SceneError(path, f"must be <= {high}, got {shown(value)}")
         return value
 
     return read
@@ -171,13 +230,13 @@ def integer(low: int | None = None, high: int | None = None) -> Reader:
 
 def boolean(value, path):
     if not isinstance(value, bool):
-        raise SceneError(path, f"must be true or false, got {_kind(value)} {value!r}")
+        raise SceneError(path, f"must be true or false, got {_kind(value)} {shown(value)}")
     return value
 
 
 def string(value, path):
     if not isinstance(value, str):
-        raise SceneError(path, f"must be a string, got {_kind(value)} {value!r}")
+        raise SceneError(path, f"must be a string, got {_kind(value)} {shown(value)}")
     return value
 
 
@@ -193,7 +252,7 @@ def file_name(value, path):
         raise SceneError(
             path,
             f"must be a plain name of letters, digits, '_', '-' and '.' (at most 100, "
-            f"starting with a letter or digit, no '/' or '..'), got {text!r}",
+            f"starting with a letter or digit, no '/' or '..'), got {shown(text)}",
         )
     return text
 
@@ -220,12 +279,12 @@ def scene_file(base: Path, *, suffixes: tuple[str, ...] = (), what: str = "file"
             if not resolved.is_relative_to(root):
                 raise SceneError(
                     path,
-                    f"{text!r} leaves the scene file's folder {str(root)!r}; "
+                    f"{shown(text)} leaves the scene file's folder {str(root)!r}; "
                     "use a path inside it or an absolute path",
                 )
         if suffixes and resolved.suffix.lower() not in suffixes:
             allowed = ", ".join(suffixes)
-            raise SceneError(path, f"must be a {allowed} file, got {text!r}")
+            raise SceneError(path, f"must be a {allowed} file, got {shown(text)}")
         if not resolved.is_file():
             raise SceneError(path, f"{what} not found (cannot read {resolved})")
         return resolved
@@ -236,8 +295,8 @@ def scene_file(base: Path, *, suffixes: tuple[str, ...] = (), what: str = "file"
 def one_of(*choices: str) -> Reader:
     def read(value, path):
         if value not in choices:
-            allowed = ", ".join(repr(c) for c in choices)
-            raise SceneError(path, f"must be one of {allowed}, got {value!r}")
+            allowed = listed(choices, limit=40)
+            raise SceneError(path, f"must be one of {allowed}, got {shown(value)}")
         return value
 
     return read
@@ -248,7 +307,7 @@ def vector(size: int = 3) -> Reader:
 
     def read(value, path):
         if not isinstance(value, list) or len(value) != size:
-            raise SceneError(path, f"must be an array of {size} numbers, got {value!r}")
+            raise SceneError(path, f"must be an array of {size} numbers, got {shown(value)}")
         return tuple(number()(v, f"{path}[{i}]") for i, v in enumerate(value))
 
     return read
@@ -261,19 +320,30 @@ def color(value, path):
         and len(value) in (3, 4)
         and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
     ):
+        if isinstance(value, list):
+            value = [number(0.0)(v, f"{path}[{i}]") for i, v in enumerate(value)]
         try:
             return tuple(parse_color(value))
-        except ValueError as error:
-            raise SceneError(path, str(error)) from None
-    raise SceneError(path, f'must be a colour like "#ff8800" or [r, g, b(, a)], got {value!r}')
+        except ValueError:
+            if isinstance(value, str):
+                allowed = "must be a colour like '#rrggbb' or '#rrggbbaa'"
+            else:
+                allowed = "must be a colour of 3 or 4 finite values >= 0"
+            raise SceneError(path, f"{allowed}, got {shown(value)}") from None
+    raise SceneError(path, f'must be a colour like "#ff8800" or [r, g, b(, a)], got {shown(value)}')
 
 
-def array_of(reader: Reader, *, min_length: int = 0) -> Reader:
+def array_of(reader: Reader, *, min_length: int = 0, length: int | None = None) -> Reader:
+    """An array whose entries ``reader`` reads: at least ``min_length`` of them, or
+    exactly ``length``."""
+
     def read(value, path):
         if not isinstance(value, list):
-            raise SceneError(path, f"must be an array, got {_kind(value)} {value!r}")
+            raise SceneError(path, f"must be an array, got {_kind(value)} {shown(value)}")
         if len(value) < min_length:
             raise SceneError(path, f"needs at least {min_length} entries, got {len(value)}")
+        if length is not None and len(value) != length:
+            raise SceneError(path, f"must have {length} entries, got {len(value)}")
         return [reader(v, f"{path}[{i}]") for i, v in enumerate(value)]
 
     return read
@@ -284,7 +354,7 @@ def keyed(value_reader: Reader) -> Reader:
 
     def read_key(value, path):
         if not isinstance(value, list) or len(value) != 2:
-            raise SceneError(path, f"must be a [time, value] pair, got {value!r}")
+            raise SceneError(path, f"must be a [time, value] pair, got {shown(value)}")
         return number(0.0, 1.0)(value[0], f"{path}[0]"), value_reader(value[1], f"{path}[1]")
 
     return array_of(read_key, min_length=1)
