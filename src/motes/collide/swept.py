@@ -20,7 +20,7 @@ import numba
 import numpy as np
 
 from .._jit import block_bounds, block_count, parallel_kernel, serial_kernel
-from ..geometry.distance import segment_triangle, triangle_normal
+from ..geometry.distance import segment_box, segment_triangle, triangle_normal
 from ..geometry.layout import KIND, RESTITUTION, SWEPT, G, Kind
 
 #: Gap left between a stopped particle and the surface [m] (keeps it on the free side
@@ -31,8 +31,10 @@ PLANE, BOX, MESH = int(Kind.PLANE), int(Kind.BOX), int(Kind.MESH)
 
 
 @serial_kernel
-def _sweep_one(row, tri, cell_start, cell_tris, ax, ay, az, dx, dy, dz, r):
-    """Earliest hit (fraction, normal, stand-off) of the segment a -> a + d, or inf."""
+def _sweep_one(table, c, tri, cell_start, cell_tris, ax, ay, az, dx, dy, dz, r):
+    """Earliest hit (fraction, normal, stand-off) of the segment a -> a + d against row
+    ``c``, or inf."""
+    row = table[c]
     kind = int(row[KIND])
     if kind == PLANE:
         nx, ny, nz = row[G], row[G + 1], row[G + 2]
@@ -42,29 +44,7 @@ def _sweep_one(row, tri, cell_start, cell_tris, ax, ay, az, dx, dy, dz, r):
             return s0 / (s0 - s1), nx, ny, nz, 0.0
         return np.inf, 0.0, 0.0, 0.0, 0.0
     if kind == BOX:
-        # Slabs of the box grown by r, in its own axes.
-        enter = -np.inf
-        leave = np.inf
-        fx = fy = fz = 0.0
-        for a in range(3):
-            ux, uy, uz = row[G + 6 + 3 * a], row[G + 7 + 3 * a], row[G + 8 + 3 * a]
-            o = (ax - row[G]) * ux + (ay - row[G + 1]) * uy + (az - row[G + 2]) * uz
-            v = dx * ux + dy * uy + dz * uz
-            h = row[G + 3 + a] + r
-            if v == 0.0:
-                if abs(o) > h:
-                    return np.inf, 0.0, 0.0, 0.0, 0.0
-                continue
-            t0 = (-h - o) / v
-            t1 = (h - o) / v
-            sign = -1.0
-            if t0 > t1:
-                t0, t1 = t1, t0
-                sign = 1.0
-            if t0 > enter:
-                enter = t0
-                fx, fy, fz = sign * ux, sign * uy, sign * uz
-            leave = min(leave, t1)
+        enter, leave, fx, fy, fz = segment_box(table, c, ax, ay, az, dx, dy, dz, r)
         if enter <= leave and 0.0 <= enter <= 1.0:
             return enter, fx, fy, fz, 0.0
         return np.inf, 0.0, 0.0, 0.0, 0.0
@@ -128,7 +108,7 @@ def sweep_contacts(
                 if table[c, SWEPT] == 0.0:
                     continue
                 t, nx, ny, nz, o = _sweep_one(
-                    table[c], tri, cell_start, cell_tris, ax, ay, az, dx, dy, dz, radius[p]
+                    table, c, tri, cell_start, cell_tris, ax, ay, az, dx, dy, dz, radius[p]
                 )
                 if t < best:
                     best, bc, bx, by, bz, off = t, c, nx, ny, nz, o

@@ -9,9 +9,10 @@ body's transform. One step of the pair:
    density correction), and :class:`~motes.fluids.reaction.WallReaction` sums, per wall,
    the opposite of what each push gave the liquid: the impulse ``J`` [N s] and angular
    impulse ``L`` [N m s] about the centre that the liquid gave the body in that step;
-3. each body's particles get the velocity change of that impulse, as a rigid body:
-   ``Δv_p = J / M + (I⁻¹ L) × r_p`` with ``M`` and ``I`` the mass and inertia tensor of
-   its particles about the centre, ``r_p`` a particle's offset from it (the angular
+3. each body's particles get the velocity change of that impulse, as a rigid body
+   (:meth:`motes.rigid.World.add_impulse`): ``Δv_p = J / M + (I⁻¹ L) × r_p`` with ``M``
+   and ``I`` the mass and inertia tensor of its particles about the centre, ``r_p`` a
+   particle's offset from it (the angular
    part only with ``turn=True``: the liquid's walls are upright boxes, so a liquid that
    turned a body could not turn it back, the shift of buoyancy that rights a tilted
    plank being invisible to it);
@@ -93,20 +94,11 @@ class FloatingBodies:
 
     def step(self, dt: float) -> None:
         """Advance liquid and bodies by ``dt`` [s], exchanging the liquid's push."""
-        centers = self._follow()
+        self._follow()
         self.fluid.step(dt)
         impulse, angular = self.reaction.impulse, self.reaction.angular_impulse
         self.force = impulse / dt
-        x = self.world._position
-        for k, body in enumerate(self.bodies):
-            idx = body.particles
-            mass = self.world.mass[idx]
-            offset = x[:, idx] - centers[body.index][:, None]
-            inertia = (mass * (offset * offset).sum(axis=0)).sum() * np.eye(3) - (
-                mass * offset
-            ) @ offset.T
-            change = np.broadcast_to(impulse[k] / mass.sum(), (len(idx), 3))
-            if self.turn:
-                change = change + np.cross(np.linalg.solve(inertia, angular[k]), offset.T)
-            self.world.add_velocity(idx, change)
+        self.world.add_impulse(
+            [body.particles for body in self.bodies], impulse, angular if self.turn else None
+        )
         self.world.step(dt)
