@@ -211,10 +211,10 @@ class RigidContact(KindContact):
         The world (its bodies' poses, velocities and masses now are used; its particles
         receive the reactions through :meth:`~motes.rigid.World.add_impulse`).
     bodies : sequence of Body or int, optional
-        The box bodies the particles hit; by default every box of the world.
+        The box bodies the particles hit; by default every box the world has now.
     spheres : sequence of int, optional
         Particles of the world hit as balls of their radius; by default every particle
-        that collides as a sphere (:meth:`~motes.rigid.World.add_sphere_contacts`).
+        that collides as a sphere now (:meth:`~motes.rigid.World.add_sphere_contacts`).
         Pass ``()`` for none.
     restitution : float
         Fraction of the relative normal speed kept on bounce, in [0, 1].
@@ -298,7 +298,8 @@ class RigidContact(KindContact):
         return self._buffers
 
     def _groups(self) -> list:
-        particles = [self.world.bodies[b].particles for b in self.bodies]
+        bodies = self.world.bodies
+        particles = [bodies[b].particles for b in self.bodies]
         return particles + [np.array([p]) for p in self.spheres]
 
     def _rows(self) -> np.ndarray:
