@@ -267,9 +267,11 @@ def test_an_off_centre_stream_tips_a_standing_box_and_a_centred_light_one_does_n
 
 def test_a_particle_and_a_ball_of_equal_mass_exchange_velocities():
     world = World(gravity=(0.0, 0.0, 0.0))
-    ball = world.add_particles([(0.0, 0.0, 0.0)], mass=0.05, radius=0.1)
+    # Away from the origin: a ball's centre of mass rounds off its own position, and
+    # that must not give it an inertia (a single particle cannot spin).
+    ball = world.add_particles([(0.3, 1.7, -0.45)], mass=0.05, radius=0.1)
     world.add_sphere_contacts(ball)
-    system = _shots([(-1.0, 0.0, 0.0)], [(10.0, 0.0, 0.0)], mass=0.05)
+    system = _shots([(-0.7, 1.7, -0.45)], [(10.0, 0.0, 0.0)], mass=0.05)
     system.add(RigidContact(world, restitution=1.0, thickness=0.01))
     for _ in range(8):
         system.step(DT)

@@ -71,9 +71,11 @@ def _frame(position, mass, members, start, owner):
     spread = (rho * rho).sum(axis=1)[:, None, None] * np.eye(3) - rho[:, :, None] * rho[:, None, :]
     inertia = np.add.reduceat(m[:, None, None] * spread, first, axis=0)
     # Pseudo-inverse by eigen-decomposition: axes a set cannot turn about (a stick's,
-    # every axis of one particle) have zero inertia and take no angular impulse.
+    # every axis of one particle) have zero inertia and take no angular impulse. Zero up
+    # to round-off: offsets from a centre |c| from the origin round at ~1e-16 |c|.
     w, v = np.linalg.eigh(inertia)
-    keep = w > 1e-12 * np.maximum(w.max(axis=1, keepdims=True), 1e-300)
+    noise = total * (1e-13 * (1.0 + np.linalg.norm(centre, axis=1))) ** 2  # [kg m²]
+    keep = (w > 1e-12 * w.max(axis=1, keepdims=True)) & (w > noise[:, None])
     inv_w = np.where(keep, 1.0 / np.where(keep, w, 1.0), 0.0)
     inverse = np.einsum("kij,kj,klj->kil", v, inv_w, v)
     return total, centre, rho, inverse
