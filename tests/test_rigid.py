@@ -196,3 +196,56 @@ def test_ragdoll_hinge_sides_straighten_a_knee_bent_backwards():
         assert np.linalg.norm(w.velocity, axis=1).max() < 4.0
     assert np.degrees(doll.limit_violation(w.position)[13]) < 1.0
     assert w.position[ankle, 2] < w.position[knee, 2] + 0.01
+
+
+def _momenta(world):
+    """Momentum and angular momentum about the origin of the world's particles."""
+    v = world._next_velocity().T  # what the next step starts from, pending changes included
+    return world.mass @ v, world.mass @ np.cross(world.position, v)
+
+
+def test_an_impulse_changes_a_body_s_momentum_and_angular_momentum_exactly():
+    world = mr.World(gravity=(0, 0, 0))
+    turn = rotation((1.0, 2.0, 0.5), 0.7)
+    box = world.add_body(mr.BodyShape.box((0.3, 1.0, -0.2), (0.4, 1.0, 0.6), 3.0, rotation=turn))
+    tetra = world.add_body(mr.BodyShape.tetrahedron((2.0, 0.0, 0.0), 0.5))
+    world.set_velocity(box.particles, (1.0, 0.0, 0.0))
+    world.step(1 / 60)
+    motion = world.motion([box.particles, tetra.particles])
+    assert_allclose(motion.velocity[0], (1.0, 0.0, 0.0), atol=1e-12)
+    assert_allclose(motion.angular_velocity, 0.0, atol=1e-12)
+    assert_allclose(motion.inverse_mass, (1 / 3.0, 1.0))
+    before = _momenta(world)
+    j, point = np.array([0.4, -1.0, 0.3]), np.array([0.4, 1.3, 0.1])
+    world.add_impulse([box.particles], [j], [np.cross(point - motion.centre[0], j)])
+    after = _momenta(world)
+    assert_allclose(after[0] - before[0], j, atol=1e-13)
+    assert_allclose(after[1] - before[1], np.cross(point, j), atol=1e-13)
+    # The motion the next step starts from includes the impulse; the world keeps it.
+    changed = world.motion([box.particles])
+    assert_allclose(changed.velocity[0] - motion.velocity[0], j / 3.0, atol=1e-13)
+    world.step(1 / 60)
+    assert_allclose(world.mass @ world.velocity, after[0], atol=1e-12)
+    # One particle takes no angular impulse; a pinned body none at all.
+    world.add_impulse([[0]], [j], [(1.0, 1.0, 1.0)])
+    assert_allclose(_momenta(world)[0] - after[0], j, atol=1e-12)
+    world.pin(tetra.particles)
+    world.add_impulse([tetra.particles], [j])
+    assert_allclose(_momenta(world)[0] - after[0], j, atol=1e-12)
+
+
+def test_boxes_are_read_from_their_particles_as_they_turn():
+    world = mr.World(gravity=(0, 0, 0))
+    turn = rotation((0.0, 0.0, 1.0), 0.4)
+    shape = mr.BodyShape.box((0.0, 1.0, 0.0), (0.2, 0.4, 0.6), rotation=turn)
+    box = world.add_body(shape)
+    world.add_body(mr.BodyShape.tetrahedron((2.0, 0.0, 0.0)))
+    assert mr.BodyShape.tetrahedron().box_geometry() is None
+    world.set_velocity(box.particles, np.cross((0.0, 2.0, 1.0), world.position[box.particles]))
+    for _ in range(20):
+        world.step(1 / 60)
+    index, centre, half, axes = world.boxes()
+    assert_array_equal(index, [0])
+    assert_allclose(np.sort(half[0]), (0.1, 0.2, 0.3), atol=1e-12)
+    local = (world.position[box.particles] - centre[0]) @ axes[0].T
+    assert_allclose(np.abs(local), np.broadcast_to(half[0], (8, 3)), atol=1e-6)

@@ -119,10 +119,19 @@ def test_mesh_rows_match_a_brute_force_twin():
 
 
 # -- one collider, three solvers -----------------------------------------------------------
+_C, _S = np.cos(np.radians(30.0)), np.sin(np.radians(30.0))
+#: 30 degrees about z, then 30 degrees about x.
+TURN = np.array([[1, 0, 0], [0, _C, -_S], [0, _S, _C]]) @ np.array(
+    [[_C, -_S, 0], [_S, _C, 0], [0, 0, 1]]
+)
 PAIRS = {
     "plane": (Plane((0, 0.6, 0.8), point=(0, 0.2, 0)), fluids.Plane((0, 0.6, 0.8), (0, 0.2, 0))),
     "sphere": (Sphere((0.2, -0.1, 0.3), 0.7), fluids.Sphere((0.2, -0.1, 0.3), 0.7)),
     "box": (Box((0.1, 0, -0.2), (1.0, 0.6, 1.4)), fluids.Box((0.1, 0, -0.2), (0.5, 0.3, 0.7))),
+    "turned box": (
+        Box((0.1, 0, -0.2), (1.0, 0.6, 1.4), rotation=TURN),
+        fluids.Box((0.1, 0, -0.2), (0.5, 0.3, 0.7), rotation=TURN),
+    ),
 }
 
 

@@ -161,7 +161,9 @@ def _push(
 
 
 @device
-def _body_weight(inv_mass_b, iinv, rx, ry, rz, nx, ny, nz):
+def body_weight(inv_mass_b, iinv, rx, ry, rz, nx, ny, nz):
+    """Generalised inverse mass ``1/M + (ρ × n)ᵀ I⁻¹ (ρ × n)`` [1/kg] of a body at a
+    point ``ρ`` from its centre along the unit ``n`` (Müller et al. 2020, eq. 2–3)."""
     tx = ry * nz - rz * ny
     ty = rz * nx - rx * nz
     tz = rx * ny - ry * nx
@@ -564,8 +566,8 @@ def body_contacts(
                 sx, sy, sz = found[j, 1], found[j, 2], found[j, 3]
                 rx, ry, rz = found[j, 4], found[j, 5], found[j, 6]
                 deepest = max(deepest, depth)
-                total = _body_weight(body_inv_mass[a], ia, sx, sy, sz, nx, ny, nz)
-                total += _body_weight(body_inv_mass[b], iinv, rx, ry, rz, nx, ny, nz)
+                total = body_weight(body_inv_mass[a], ia, sx, sy, sz, nx, ny, nz)
+                total += body_weight(body_inv_mass[b], iinv, rx, ry, rz, nx, ny, nz)
                 if total <= 0.0:
                     continue
                 lam = depth / total / count

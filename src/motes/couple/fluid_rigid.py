@@ -1,20 +1,23 @@
 """Liquids and rigid bodies acting on each other: boxes that float, sink and displace.
 
 Each coupled body of a rigid :class:`~motes.rigid.World` (a box made of particles) is
-also a solid wall of a :class:`~motes.fluids.Fluid`: a box boundary that follows the
-body's transform. One step of the pair:
+also a solid wall of a :class:`~motes.fluids.Fluid`: an oriented box boundary that
+follows the body's transform. One step of the pair:
 
-1. the walls take the bodies' current centres (and, for oriented walls, rotations);
+1. the walls take the bodies' current centres and rotations
+   (:meth:`motes.rigid.World.transforms`);
 2. the liquid steps; its walls push it (the push-out and the walls' part of every
    density correction), and :class:`~motes.fluids.reaction.WallReaction` sums, per wall,
    the opposite of what each push gave the liquid: the impulse ``J`` [N s] and angular
    impulse ``L`` [N m s] about the centre that the liquid gave the body in that step;
-3. each body's particles get the velocity change of that impulse, as a rigid body:
-   ``Δv_p = J / M + (I⁻¹ L) × r_p`` with ``M`` and ``I`` the mass and inertia tensor of
-   its particles about the centre, ``r_p`` a particle's offset from it (the angular
-   part only with ``turn=True``: the liquid's walls are upright boxes, so a liquid that
-   turned a body could not turn it back, the shift of buoyancy that rights a tilted
-   plank being invisible to it);
+3. each body's particles get the velocity change of that impulse, as a rigid body
+   (:meth:`motes.rigid.World.add_impulse`): ``Δv_p = J / M + (I⁻¹ L) × r_p`` with ``M``
+   and ``I`` the mass and inertia tensor of its particles about the centre, ``r_p`` a
+   particle's offset from it. The angular part is what rights a tilted plank: the
+   walls turn with the body, so the liquid displaced on the low side pushes harder.
+   With ``turn=False`` it is left out and bodies keep their orientation against the
+   liquid (as when the walls were upright boxes, which could tip a plank but never
+   right it);
 4. the world steps (gravity, constraints, its own colliders).
 
 Whatever the liquid gains from a wall the body loses, so liquid and bodies together
@@ -46,13 +49,15 @@ class FloatingBodies:
         too, so that a sinking body comes to rest on the floor).
     bodies : sequence of (Body, size)
         Each body, as ``World.add_body`` returned it, with the full edge lengths (3,) [m]
-        of the box the liquid sees (the body's box shape).
+        of the box the liquid sees (the body's box shape) along the x, y and z axes of
+        the body's rest frame (build the box unrotated and turn its particles to place
+        it tilted).
     turn : bool
-        Also apply the liquid's torque (see the module docstring); by default bodies
-        keep their orientation against the liquid.
+        Apply the liquid's torque (see the module docstring; default). ``False`` keeps
+        the bodies' orientations against the liquid.
     """
 
-    def __init__(self, fluid, world, bodies, *, turn: bool = False):
+    def __init__(self, fluid, world, bodies, *, turn: bool = True):
         self.turn = bool(turn)
         self.fluid = fluid
         self.world = world
@@ -72,9 +77,10 @@ class FloatingBodies:
                     f"size of body {k} must be at least two kernel supports of the liquid "
                     f"(2 h = {thinnest:g} m) along every edge, got {size.tolist()}"
                 )
-        centers, _ = world.transforms()
+        _check_upright(world, self.bodies)
+        centers, rotations = world.transforms()
         self.walls = [
-            BoxWall(centers[body.index], size / 2)
+            BoxWall(centers[body.index], size / 2, rotation=rotations[body.index])
             for body, size in zip(self.bodies, sizes, strict=True)
         ]
         fluid.model = dataclasses.replace(
@@ -85,28 +91,36 @@ class FloatingBodies:
         #: Force [N] the liquid exerted on each body over the last step, (k, 3).
         self.force = np.zeros((len(self.bodies), 3))
 
-    def _follow(self) -> np.ndarray:
-        centers, _ = self.world.transforms()
+    def _follow(self) -> None:
+        centers, rotations = self.world.transforms()
         for wall, body in zip(self.walls, self.bodies, strict=True):
             wall.center = centers[body.index].copy()
-        return centers
+            wall.rotation = rotations[body.index].copy()
 
     def step(self, dt: float) -> None:
         """Advance liquid and bodies by ``dt`` [s], exchanging the liquid's push."""
-        centers = self._follow()
+        self._follow()
         self.fluid.step(dt)
         impulse, angular = self.reaction.impulse, self.reaction.angular_impulse
         self.force = impulse / dt
-        x = self.world._position
-        for k, body in enumerate(self.bodies):
-            idx = body.particles
-            mass = self.world.mass[idx]
-            offset = x[:, idx] - centers[body.index][:, None]
-            inertia = (mass * (offset * offset).sum(axis=0)).sum() * np.eye(3) - (
-                mass * offset
-            ) @ offset.T
-            change = np.broadcast_to(impulse[k] / mass.sum(), (len(idx), 3))
-            if self.turn:
-                change = change + np.cross(np.linalg.solve(inertia, angular[k]), offset.T)
-            self.world.add_velocity(idx, change)
+        self.world.add_impulse(
+            [body.particles for body in self.bodies], impulse, angular if self.turn else None
+        )
         self.world.step(dt)
+
+
+def _check_upright(world, bodies) -> None:
+    """The walls are boxes along the bodies' rest axes: refuse box bodies whose shape was
+    built rotated (their rest frame is not the box's)."""
+    index, _, _, axes = world.boxes()
+    _, rotations = world.transforms()
+    where = {int(b): k for k, b in enumerate(index)}
+    for k, body in enumerate(bodies):
+        if body.index not in where:
+            continue
+        rest = axes[where[body.index]] @ rotations[body.index]  # rows: the rest axes
+        if not np.allclose(np.abs(rest).max(axis=1), 1.0, atol=1e-6):
+            raise ValueError(
+                f"bodies: body {k} is a box built rotated; build it along x, y and z and "
+                "turn its particles instead (the liquid's wall follows its rest axes)"
+            )

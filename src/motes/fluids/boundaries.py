@@ -137,26 +137,43 @@ class Tank(Boundary):
 
 
 class Box(Boundary):
-    """A solid axis-aligned box that fluid flows around.
+    """A solid box that fluid flows around, oriented by a rotation.
 
     Parameters
     ----------
     center : sequence of 3 floats
         Centre [m].
     half_extents : sequence of 3 floats
-        Half sizes along x, y, z [m], each > 0.
+        Half sizes along the box's own axes [m], each > 0.
+    rotation : (3, 3) array_like, optional
+        Rotation whose columns are the box's axes in world coordinates (the identity,
+        an axis-aligned box, by default). A wall that moves with a body takes the body's
+        rotation every step (:class:`motes.couple.FloatingBodies`).
     """
 
-    def __init__(self, center, half_extents, **options):
+    def __init__(self, center, half_extents, *, rotation=None, **options):
         super().__init__(**options)
         self.center = _validate.vector("center", center)
         self.half_extents = _validate.vector("half_extents", half_extents)
         if np.any(self.half_extents <= 0):
             raise ValueError(f"half_extents must be > 0, got {self.half_extents.tolist()}")
+        self.rotation = np.eye(3) if rotation is None else rotation
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """(3, 3) rotation; its columns are the box's axes."""
+        return self._rotation
+
+    @rotation.setter
+    def rotation(self, value) -> None:
+        r = np.asarray(value, dtype=np.float64)
+        if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=1e-6):
+            raise ValueError("rotation must be a (3, 3) rotation matrix")
+        self._rotation = r
 
     def _shapes(self):
-        # An axis-aligned oriented box: the identity's rows are its axes.
-        return [(Kind.BOX, [*self.center, *self.half_extents, *np.eye(3).ravel()], False)]
+        # The row holds the axes as unit rows: the rotation's columns.
+        return [(Kind.BOX, [*self.center, *self.half_extents, *self._rotation.T.ravel()], False)]
 
 
 class Sphere(Boundary):

@@ -5,6 +5,7 @@ pins and collisions together; :class:`BodyShape` builds tetrahedra, boxes and co
 hulls; :func:`add_ragdoll` builds a character from a few proportions.
 """
 
+from .motion import RigidMotion
 from .ragdoll import Ragdoll, RagdollProportions, add_ragdoll
 from .shapes import BodyShape
 from .transform import body_transforms
@@ -15,6 +16,7 @@ __all__ = [
     "BodyShape",
     "Ragdoll",
     "RagdollProportions",
+    "RigidMotion",
     "World",
     "add_ragdoll",
     "body_transforms",

@@ -48,6 +48,38 @@ class BodyShape:
         """Centre of mass [m]."""
         return self.masses @ self.positions / self.mass
 
+    def box_geometry(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The box this solid is, or None when it is not a box.
+
+        Returns ``(centre (3,), half_extents (3,), axes (3, 3))`` in the shape's
+        coordinates [m]: the axes are unit rows, the face normals of three pairs of
+        opposite, mutually orthogonal faces (any box, rotated or not, of
+        :meth:`box` or :meth:`from_points`).
+        """
+        planes = self.planes
+        if len(planes) != 6:
+            return None
+        normals, offsets = planes[:, :3], planes[:, 3]
+        axes, centre, half = [], [], []
+        used = np.zeros(6, dtype=bool)
+        for f in range(6):
+            if used[f]:
+                continue
+            opposite = np.flatnonzero(~used & (normals @ normals[f] < -1 + 1e-6))
+            if len(opposite) != 1:
+                return None
+            g = int(opposite[0])
+            used[[f, g]] = True
+            axes.append(normals[f])
+            half.append(0.5 * (offsets[f] + offsets[g]))
+            centre.append(0.5 * (offsets[f] - offsets[g]))
+        axes = np.array(axes)
+        if not np.allclose(axes @ axes.T, np.eye(3), atol=1e-6):
+            return None
+        u, _, vt = np.linalg.svd(axes)  # the nearest orthonormal rows (faces are rounded)
+        axes = u @ vt
+        return centre @ axes, np.array(half), axes
+
     @classmethod
     def from_points(cls, points, mass: float = 1.0, *, solid: bool = True) -> BodyShape:
         """Every pair of ``points`` joined by a stick, mass shared equally.

@@ -41,6 +41,7 @@ from ..forces.apply import add_forces, check_force
 from ..geometry.layout import RESTITUTION, SWEPT
 from ..state import Field, ParticleState
 from .kernels import verlet
+from .motion import RigidMotion, impulse_velocities, rigid_motion
 from .shapes import BodyShape
 from .transform import body_transforms
 
@@ -363,6 +364,103 @@ class World:
             raise ValueError("change must be finite")
         self._velocity_added.append((idx, dv.copy()))
 
+    def add_impulse(self, groups, impulse, angular_impulse=None) -> None:
+        """Give particle sets, each as a rigid body, an impulse at the next step.
+
+        Each set of ``groups`` (index arrays: a body's ``particles``, one ball) receives
+        the impulse ``impulse[k]`` (3,) [N s] through its centre of mass and the angular
+        impulse ``angular_impulse[k]`` [N m s] about it (none by default): its particles'
+        velocities change by ``J/M + (I⁻¹ A) × (x - c)``, which changes the set's momentum
+        by exactly ``J`` and its angular momentum about its centre by exactly ``A``
+        (:mod:`motes.rigid.motion`), taken at the positions now. An impulse ``J`` at a
+        point ``p`` is ``J`` with ``A = (p - c) × J``. Sets holding a pinned particle do
+        not move: the pins take the impulse.
+        """
+        groups = [np.atleast_1d(np.asarray(g, dtype=np.int64)) for g in groups]
+        for g in groups:
+            if g.size == 0 or g.min() < 0 or g.max() >= self.count:
+                raise ValueError(f"groups must hold particle indices in [0, {self.count - 1}]")
+        impulse = np.asarray(impulse, dtype=np.float64).reshape(len(groups), 3)
+        if angular_impulse is not None:
+            angular_impulse = np.asarray(angular_impulse, dtype=np.float64)
+            angular_impulse = angular_impulse.reshape(len(groups), 3)
+        for value, name in ((impulse, "impulse"), (angular_impulse, "angular_impulse")):
+            if value is not None and not np.all(np.isfinite(value)):
+                raise ValueError(f"{name} must be finite")
+        movable = self._build()["inv_mass"] > 0
+        free = [k for k, g in enumerate(groups) if movable[g].all()]
+        if not free:
+            return
+        members, change = impulse_velocities(
+            self._position,
+            self.mass,
+            [groups[k] for k in free],
+            impulse[free],
+            None if angular_impulse is None else angular_impulse[free],
+        )
+        self._velocity_added.append((members, change))
+
+    def motion(self, groups) -> RigidMotion:
+        """Particle sets (index arrays: a body's ``particles``, one ball) as rigid bodies
+        now: centres of mass, velocities, angular velocities, inverse masses and inverse
+        inertias about the centres (world axes), read from the particles
+        (:mod:`motes.rigid.motion`). The velocities are those the next step starts from:
+        the last substep's ``(x - x*)/h`` with the changes given since
+        (:meth:`set_velocity`, :meth:`add_velocity`, :meth:`add_impulse`). A set holding
+        a pinned particle has zero inverse mass and inertia."""
+        groups = [np.atleast_1d(np.asarray(g, dtype=np.int64)) for g in groups]
+        movable = self._build()["inv_mass"] > 0
+        return rigid_motion(self._position, self._next_velocity(), self.mass, groups, movable)
+
+    def _next_velocity(self) -> np.ndarray:
+        """(3, n) velocities [m/s] the next substep starts from (the pending changes
+        applied in the order :meth:`_substep` applies them)."""
+        v = np.zeros((3, self.count))
+        if self._h is not None:
+            v = (self._position - self._previous) / self._h
+        for idx, value in self._velocity_pending:
+            v[:, idx] = value.T
+        for idx, change in self._velocity_added:
+            np.add.at(v, (slice(None), idx), change.T)
+        return v
+
+    def boxes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The bodies that are boxes (:meth:`BodyShape.box_geometry`) as they are now.
+
+        Returns
+        -------
+        index : (k,) int64
+            Their body indices.
+        centre : (k, 3)
+            Box centres [m] (the centre of mass moved by the body's transform).
+        half_extents : (k, 3)
+            Half edge lengths [m].
+        axes : (k, 3, 3)
+            The box axes, unit rows, in world coordinates.
+        """
+        s = self._build()
+        index = np.array([b for b, box in enumerate(s["boxes"]) if box is not None], np.int64)
+        if len(index) == 0:
+            return index, np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3, 3))
+        centre, rotation = self.transforms()
+        offset = np.array([s["boxes"][b][0] for b in index])
+        half = np.array([s["boxes"][b][1] for b in index])
+        axes = np.array([s["boxes"][b][2] for b in index])
+        rotation = rotation[index]
+        # A rest axis a turns to R a: as rows, axes @ R^T.
+        return (
+            index,
+            centre[index] + np.einsum("kij,kj->ki", rotation, offset),
+            half,
+            np.einsum("kaj,kij->kai", axes, rotation),
+        )
+
+    @property
+    def spheres(self) -> np.ndarray:
+        """Particles that collide as spheres of their radius (:meth:`add_sphere_contacts`),
+        sorted."""
+        return np.array(sorted(self._spheres), dtype=np.int64)
+
     # --- state -----------------------------------------------------------------------
 
     @property
@@ -490,6 +588,7 @@ class World:
             "edges": np.ascontiguousarray(cat("edges", (0, 2)), dtype=np.int64),
             "planes": np.ascontiguousarray(cat("planes", (0, 4)), dtype=np.float64),
             "group": np.array([b["group"] for b in bodies], dtype=np.int64),
+            "boxes": [b["box"] for b in bodies],
             "rotation": None,
             "solid": any(plane_sizes) and len(bodies) > 1,
             "table": table,
@@ -536,7 +635,11 @@ class World:
         else:
             edges = np.zeros((0, 2), dtype=np.int64)
         movable = bool(np.all(inv_mass[index] > 0))
+        box = shape.box_geometry()
+        if box is not None:  # its centre and axes in the rest frame
+            box = (box[0] - centre, box[1], box[2])
         return {
+            "box": box,
             "particles": index,
             "fraction": m / m.sum(),
             "rest": rest,

@@ -24,7 +24,18 @@ from ..collide import Box as BoxCollider
 from ..render import geometry
 from .bodies import Body, BuildContext, register
 from .parts import body_forces
-from .schema import Table, boolean, build, color, integer, number, one_of, positive, vector
+from .schema import (
+    SceneError,
+    Table,
+    boolean,
+    build,
+    color,
+    integer,
+    number,
+    one_of,
+    positive,
+    vector,
+)
 
 _BOX_COLORS = ((0.75, 0.45, 0.25), (0.3, 0.5, 0.75), (0.75, 0.7, 0.3), (0.45, 0.65, 0.4))
 
@@ -80,6 +91,17 @@ class RigidScene(Body):
 
     def particle_state(self):
         return self.world.particle_state()
+
+    def contact(self, path: str, name: str, options: dict):
+        from ..couple import RigidContact
+
+        if len(self.world.boxes()[0]) == 0 and len(self.world.spheres) == 0:
+            raise SceneError(
+                path,
+                f"emitter particles cannot collide with body {name!r}: its rigid world "
+                "has no boxes or balls (particles hit box bodies and balls)",
+            )
+        return build(path, RigidContact, self.world, **options)
 
     def drawables(self) -> list:
         out = list(self.static)

@@ -522,7 +522,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
                 _refuse_mesh(c, path, system_name, shared=True)
                 system.add(c)
         pending_children.extend((system, c) for c in t.tables("child"))
-        pending_contacts.extend((system, c) for c in t.tables("contact"))
+        pending_contacts.extend((system_name, system, c) for c in t.tables("contact"))
         looks[system_name] = _look(t.table("render", optional=True), base)
         t.finish()
         systems[system_name] = system
@@ -551,8 +551,8 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
             raise SceneError(t.key_path("name"), f"duplicate name {shown(body_name)}")
         bodies[body_name] = body
 
-    for system, c in pending_contacts:
-        system.add(_contact(c, bodies))
+    for system_name, system, c in pending_contacts:
+        system.add(_contact(c, bodies, system_name))
 
     return Scene(
         name=name,
@@ -572,7 +572,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
     )
 
 
-def _contact(table: Table, bodies: dict[str, Body]):
+def _contact(table: Table, bodies: dict[str, Body], system_name: str):
     """A ``[[system.contact]]``: the system's particles against a body, both ways."""
     name = table.get("body", one_of(*bodies) if bodies else _no_bodies)
     options = {
@@ -583,7 +583,12 @@ def _contact(table: Table, bodies: dict[str, Body]):
         "particle_mass": table.get("particle_mass", positive(), None),
     }
     table.finish()
-    return bodies[name].contact(table.path, name, options)
+    try:
+        return bodies[name].contact(table.path, name, options)
+    except SceneError as error:
+        if error.path != table.path:
+            raise
+        raise SceneError(error.path, f"system {system_name!r}: {error.message}") from None
 
 
 def _no_bodies(value, path):
