@@ -146,6 +146,9 @@ class Scene:
                     raise SceneError(
                         f"body.{key_name(name)}", f"diverged in frame {frame}: {error}"
                     ) from error
+        if self.check_finite:  # every attribute, naming the particle
+            self.frame = frame
+            self._check_finite()
         for name, system in self.systems.items():
             if not np.isfinite(system["position"]).all():
                 raise SceneError(
@@ -154,8 +157,6 @@ class Scene:
                     "force too strong, or a step too long, for the integrator)",
                 )
         self.frame = frame
-        if self.check_finite:
-            self._check_finite()
 
     def _check_finite(self) -> None:
         """Raise :class:`~motes.finite.NonFiniteError` at the first NaN or infinity."""
