@@ -8,7 +8,7 @@ Run from the repository root::
 - **neighbours + density**: 65,536 points uniform in a unit cube with a radius giving
   about 40 neighbours each; motes builds its grid (:class:`motes.spatial.UniformGrid`,
   counting sort) and sums the poly6 density by cell traversal
-  (``fluids._kernels.cell_density``); the baseline is scipy's ``cKDTree``: build,
+  (``fluids.kernels.cell_density``); the baseline is scipy's ``cKDTree``: build,
   ``query_pairs``, and the same density summed over the pairs with ``np.bincount``.
   Both densities are compared (they must agree) and the time of motes' CSR neighbour
   lists (what the solver uses) is reported beside it;
@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from motes.fluids import Fluid, FluidModel, Tank, _kernels, lattice, sph
+from motes.fluids import Fluid, FluidModel, Tank, kernels, lattice, sph
 from motes.spatial import UniformGrid
 
 from ._common import benchmark_main, machine, table, time_calls
@@ -42,7 +42,7 @@ def cloud(n: int, seed: int = 0) -> tuple[np.ndarray, float]:
 
 def motes_density(points, h, grid, out):
     grid.build(points)
-    _kernels.cell_density(*grid.sorted_positions, grid.cell_start, grid.origin,
+    kernels.cell_density(*grid.sorted_positions, grid.cell_start, grid.origin,
                           1.0 / grid.cell, grid.dims, h, out)  # fmt: skip
     return out
 

@@ -16,7 +16,7 @@ from scipy import ndimage
 
 from motes.render.camera import Camera
 
-#: Mirrors motes.render._sprite_kernels: largest radius, exact-normalisation box limit.
+#: Mirrors motes.render.sprite_kernels: largest radius, exact-normalisation box limit.
 MAX_RADIUS_PX = 1.0e6
 EXACT_AREA = 1024.0
 MIN_RADIUS = {"point": 1.0, "smooth": 1.0, "disc": 0.5, "texture": 1.5}

@@ -58,6 +58,7 @@ def test_export_of_a_scene_made_only_of_bodies_holds_the_bodies(tmp_path, scene,
     assert run_cli("run", scene, "--no-render", "--frames", 2, "--export", path, "--quiet") == 0
     cache = load_cache(path)
     assert (cache.scene, cache.seed, cache.names) == (scene, seed, (body,))
+    assert cache.overrides == {}
     live = motes.load_scene(scene)
     for _ in range(2):
         live.advance()
@@ -167,3 +168,12 @@ def test_the_default_name_of_an_oddly_named_file_is_a_plain_name(tmp_path):
     odd.write_text('[[system]]\nname = "x"\n')
     assert load_scene(odd).name == "my_scene__v2_"
     assert load_scene('[[system]]\nname = "x"\n').name == "scene"
+
+
+def test_the_cache_records_the_values_set_over_the_scene(tmp_path):
+    path = tmp_path / "c.npz"
+    args = ("--set", "scene.seed=4", "--set", "camera.fov=40", "--set", 'scene.name="x"')
+    assert run_cli("run", "pendulums", "--no-render", "--frames", 1, "--export", path, *args) == 0
+    cache = load_cache(path)
+    assert cache.overrides == {"camera.fov": 40, "scene.name": "x", "scene.seed": 4}
+    assert (cache.scene, cache.seed) == ("x", 4)

@@ -196,7 +196,7 @@ def test_swept_kernel_matches_the_twin():
 
 
 def test_body_contact_kernel_matches_the_twin():
-    from motes.collide.bodies import body_contacts
+    from motes.rigid.body_contacts import body_contacts
 
     rng = np.random.default_rng(12)
     turn = np.linalg.qr(rng.normal(size=(3, 3)))[0]

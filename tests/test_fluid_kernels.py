@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose
 from scipy.integrate import quad
 
 import naive_fluids as naive
-from motes.fluids import Box, Plane, Sphere, Tank, _kernels, sph
+from motes.fluids import Box, Plane, Sphere, Tank, kernels, sph
 from motes.fluids.boundaries import pack
 from motes.geometry.distance import row_signed_distance
 from motes.geometry.layout import KIND, Kind
@@ -111,7 +111,7 @@ def test_density_lambda_and_correction_match_the_twin(rng):
     pf = p.T.astype(np.float32)
     delta, lam = np.empty(n, np.float32), np.empty(n, np.float32)
     scale = sph.wall_scale(0.05, h)
-    _kernels.density_lambda(
+    kernels.density_lambda(
         *pf, lists.offsets, lists.indices, weight, rows, h, 0.05, scale, 1 / delta0, 30.0,
         delta, lam,
     )  # fmt: skip
@@ -124,7 +124,7 @@ def test_density_lambda_and_correction_match_the_twin(rng):
     assert_allclose(lam, ref_lam, rtol=1e-4, atol=1e-5 * np.abs(ref_lam).max())
     out = np.empty((3, n), np.float32)
     radius = 0.025
-    _kernels.correction(
+    kernels.correction(
         *pf, lists.offsets, lists.indices, weight, lam, rows, h, 0.05, scale, 1 / delta0,
         1e-4, 1e-3, radius, out,
     )  # fmt: skip
@@ -143,9 +143,9 @@ def test_walls_combine_as_independent_shares_at_a_tank_corner():
     rows = pack([Tank((0, 0, 0), (1, 1, 1), closed=True)])
     s, scale = H / 2, sph.wall_scale(H / 2, H)
     one, _ = sph.wall_share(0.0, s, H, scale)
-    free, *_ = _kernels.walls(rows, 0.0, 0.0, 0.0, H, s, scale)
+    free, *_ = kernels.walls(rows, 0.0, 0.0, 0.0, H, s, scale)
     assert free == pytest.approx((1 - one) ** 3)
-    free, gx, gy, gz = _kernels.walls(rows, 0.5, 0.5, 0.0 + 0.3 * H, H, s, scale)
+    free, gx, gy, gz = kernels.walls(rows, 0.5, 0.5, 0.0 + 0.3 * H, H, s, scale)
     share, slope = sph.wall_share(0.3 * H, s, H, scale)
     assert free == pytest.approx(1 - share)
     assert (gx, gy) == (0.0, 0.0) and gz == pytest.approx(slope)
@@ -203,12 +203,12 @@ def test_exchange_matches_the_twin_and_the_lecture(rng):
     pf, vf = p.T.astype(np.float32), v.T.astype(np.float32)
     args = (lists.offsets, lists.indices, phase, mass.astype(np.float32), delta.astype(np.float32))
     normals = np.empty((3, n), np.float32)
-    _kernels.surface_normals(*pf, lists.offsets, lists.indices, phase, args[-1], h, normals)
+    kernels.surface_normals(*pf, lists.offsets, lists.indices, phase, args[-1], h, normals)
     ref_normals = naive.surface_normals(
         pf.T.astype(float), phase, delta.astype(np.float32).astype(float), h
     )
     assert_allclose(normals.T, ref_normals, rtol=1e-4, atol=1e-5)
-    _kernels.exchange(*pf, *vf, *args, normals, gamma, coefficients, out)
+    kernels.exchange(*pf, *vf, *args, normals, gamma, coefficients, out)
     ref = naive.exchange(
         pf.T.astype(float), vf.T.astype(float), phase, mass.astype(np.float32).astype(float),
         delta.astype(np.float32).astype(float), gamma, h, 0.004, 0.05, 3.0, 0.04, 20.0, 1000.0,
@@ -216,7 +216,7 @@ def test_exchange_matches_the_twin_and_the_lecture(rng):
     assert_allclose(out.T, ref, rtol=1e-4, atol=1e-5)
     # The lecture's viscosity alone, against its pair-by-pair loop.
     coefficients[[2, 5]] = 0.0
-    _kernels.exchange(*pf, *vf, *args, normals, np.zeros(2), coefficients, out)
+    kernels.exchange(*pf, *vf, *args, normals, np.zeros(2), coefficients, out)
     lecture = naive.momentum_exchange_pairs(
         pf.T.astype(float),
         vf.T.astype(float),
@@ -240,7 +240,7 @@ def test_projection_puts_particles_at_the_radius_from_every_wall(rng):
     p = rng.uniform(-0.5, 1.5, (3, 5000)).astype(np.float32)
     depth = np.empty(5000, np.float32)
     before = p.copy()
-    _kernels.project(*p, rows, 0.01, depth)
+    kernels.project(*p, rows, 0.01, depth)
     assert np.all((p >= 0.01 - 1e-6) & (p <= 0.99 + 1e-6))
     for row in rows[6:]:
         d, _ = naive.signed_distance(row, p.T.astype(float))
@@ -283,14 +283,14 @@ def test_boundary_friction_and_adhesion():
         np.zeros(2, np.float32),
     )
     depth = np.array([0.0, 0.001], np.float32)
-    _kernels.boundary_velocity(
+    kernels.boundary_velocity(
         x, y, z, vx, vy, vz, depth, rows, np.array([h, radius, dt, 1000 * 0.05])
     )
     # Scale friction keeps 75 %; depth friction removes μ·depth/dt; the second particle
     # touches the lid, which pulls it with the whole wall integral of the adhesion spline.
     assert vx[0] == pytest.approx(0.75)
     assert vx[1] == pytest.approx(1.0 - 0.5 * 0.001 / dt, rel=1e-5)
-    pull = dt * 2.0 * 1000 * 0.05 * _kernels.wall_adhesion(0.025, h)
+    pull = dt * 2.0 * 1000 * 0.05 * kernels.wall_adhesion(0.025, h)
     assert pull > 0 and vy[1] == pytest.approx(pull, rel=1e-5)
 
 
@@ -299,7 +299,7 @@ def test_cell_density_matches_brute_force(rng):
     h = 0.08
     grid = UniformGrid(h / 2).build(pts)
     out = np.empty(3000, np.float32)
-    _kernels.cell_density(*grid.sorted_positions, grid.cell_start, grid.origin,
+    kernels.cell_density(*grid.sorted_positions, grid.cell_start, grid.origin,
                           1.0 / grid.cell, grid.dims, h, out)  # fmt: skip
     p = grid.sorted_positions.T.astype(np.float64)
     r = np.linalg.norm(p[:, None] - p[None, :], axis=2)
@@ -315,12 +315,12 @@ def test_vorticity_and_confinement_match_the_twins(rng):
     lists, _ = csr(p, h)
     pf, vf = p.T.astype(np.float32), v.T.astype(np.float32)
     omega = np.empty((3, n), np.float32)
-    _kernels.vorticity(*pf, *vf, lists.offsets, lists.indices, delta.astype(np.float32), h, omega)
+    kernels.vorticity(*pf, *vf, lists.offsets, lists.indices, delta.astype(np.float32), h, omega)
     ref = naive.vorticity(pf.T.astype(float), vf.T.astype(float), delta, h)
     # float32 sums of ~30 terms of either sign: round-off ~1e-6 of the largest term.
     assert_allclose(omega.T, ref, rtol=1e-4, atol=1e-5 * np.abs(ref).max())
     out = np.empty((3, n), np.float32)
-    _kernels.confinement(
+    kernels.confinement(
         *pf, *vf, lists.offsets, lists.indices, delta.astype(np.float32), omega, h, 0.01, out
     )
     want = naive.confinement(pf.T.astype(float), vf.T.astype(float), delta, omega.T, h, 0.01)
@@ -339,7 +339,7 @@ def test_vorticity_of_a_rigid_rotation_is_twice_its_angular_velocity():
     lists, _ = csr(p.T.astype(float), h)
     omega = np.empty_like(p)
     delta = np.full(p.shape[1], delta0, np.float32)
-    _kernels.vorticity(*p, *v, lists.offsets, lists.indices, delta, h, omega)
+    kernels.vorticity(*p, *v, lists.offsets, lists.indices, delta, h, omega)
     inner = np.all(np.abs(p - 0.25) < 0.25 - h, axis=0)
     # The SPH curl of a linear field is the field's curl times the discrete gradient's
     # response to a linear field (0.947 at h = 2 spacings), up to float32 round-off.

@@ -93,6 +93,7 @@ def test_file_layout_is_the_documented_one(tmp_path):
         assert int(data["version"]) == VERSION == 2
         assert str(data["motes_version"]) == mo.__version__
         assert str(data["scene"]) == "" and int(data["seed"]) == -1
+        assert str(data["overrides"]) == "{}"
         assert data["times"].dtype == np.float64 and data["times"].shape == (3,)
         assert list(data["names"]) == ["fountain", "puff"]
         puff = ("ids", "positions", "velocities", "radius", "age", "lifetime")
@@ -101,7 +102,7 @@ def test_file_layout_is_the_documented_one(tmp_path):
         assert len(data["puff/docs"]) == len(puff)
         meta = ("attributes", "units", "docs", "offsets")
         assert sorted(data.files) == sorted(
-            ["format", "version", "motes_version", "scene", "seed", "times", "names"]
+            ["format", "version", "motes_version", "scene", "seed", "overrides", "times", "names"]
             + [f"puff/{k}" for k in meta + puff]
             + [f"fountain/{k}" for k in meta + tuple(data["fountain/attributes"])]
         )
@@ -258,6 +259,13 @@ def test_newer_version_and_damaged_files(tmp_path):
     rewrite(good, offsets, **{"puff/offsets": np.array([0, 5], np.int64)})
     with pytest.raises(ValueError, match=r"damaged.*bad puff/offsets"):
         load_cache(offsets)
+    no_object = tmp_path / "overrides.npz"
+    rewrite(good, no_object, overrides=np.array("[1, 2]"))
+    with pytest.raises(ValueError, match=r"damaged.*'overrides' is not a JSON object"):
+        load_cache(no_object)
+    older = tmp_path / "older.npz"
+    rewrite(good, older, overrides=None)
+    assert load_cache(older).overrides == {}
 
 
 # -- every kind --------------------------------------------------------------------------

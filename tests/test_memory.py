@@ -93,6 +93,16 @@ def test_a_cloth_grid_is_refused_before_its_topology_is_built(limit):
         mo.Cloth([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0, 0, 1], [1, 0, 1]], [[0, 1, 2]])
 
 
+def test_hair_is_refused_before_its_strands_are_grown(limit):
+    limit(GB)
+    with pytest.raises(mo.InsufficientMemoryError) as error:
+        mo.Hair(mo.Head(), strands=100_000, particles=100)
+    assert str(error.value).startswith(
+        "strands × particles = 100000 × 100 would need about 20.5 GB of memory "
+        "(about 2048 B per particle), more than the 1.0 GB"
+    )
+
+
 def test_a_liquid_with_too_many_particles_is_refused(limit):
     limit(GB)
     with pytest.raises(mo.InsufficientMemoryError, match=r"^spacing = 0\.0001 \(1000000000000 "):

@@ -8,8 +8,8 @@ import motes.rigid as mr
 import naive_restitution as naive
 from motes.collide import Plane, Sphere
 from motes.collide.contact import Detection, pack
-from motes.collide.restitution import restitute_contacts
-from motes.collide.spheres import project_spheres, restitute_spheres
+from motes.rigid.restitution import restitute_contacts
+from motes.rigid.sphere_contacts import project_spheres, restitute_spheres
 
 H = 1 / 60
 

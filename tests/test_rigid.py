@@ -8,8 +8,8 @@ from numpy.testing import assert_allclose, assert_array_equal
 import motes.rigid as mr
 import naive_constraints as naive
 from motes.collide import Plane
-from motes.collide.rotation import update_rotations
 from motes.rigid.kernels import verlet
+from motes.rigid.rotation import update_rotations
 
 
 def rotation(axis, angle):

@@ -191,3 +191,31 @@ def test_a_visible_box_collider_is_drawn_with_its_full_size_and_rotation():
     np.testing.assert_allclose(box.params["size"], (2.0, 0.5, 1.0))
     np.testing.assert_allclose(box.params["center"], (0.0, 1.0, 0.0))
     assert scene.render((32, 18)).shape == (18, 32, 3)
+
+
+def test_a_capsule_collider_is_swept_when_asked_and_drawn_as_its_surface():
+    text = scene_with(
+        '[[collider]]\ntype = "capsule"\na = [-0.5, 0.5, 0]\nb = [0.5, 0.5, 0]\n'
+        'radius = 0.2\ndetection = "priori"\nvisible = true\n'
+    )
+    scene = load_scene(text)
+    (capsule,) = scene.systems["a"].colliders
+    assert isinstance(capsule, mo.Capsule) and capsule.swept
+    assert capsule.friction_model == mo.Friction.DEPTH  # a capsule's default
+    (drawn,) = scene.objects
+    assert drawn.kind == "capsule" and drawn.params["radius"] == 0.2
+    # Every drawn vertex lies on the capsule's surface: radius from the axis segment.
+    from motes.render.geometry import Capsule
+
+    surface = Capsule(drawn.params["a"], drawn.params["b"], 0.2).triangles(None).positions
+    t = np.clip(surface[:, 0] / 1.0 + 0.5, 0.0, 1.0)
+    nearest = np.stack([t - 0.5, np.full_like(t, 0.5), np.zeros_like(t)], axis=1)
+    np.testing.assert_allclose(np.linalg.norm(surface - nearest, axis=1), 0.2, rtol=1e-9)
+    assert scene.render((32, 18)).std() > 0
+
+
+def test_an_inside_capsule_cannot_be_swept():
+    text = scene_with('[[collider]]\ntype = "capsule"\ninside = true\ndetection = "priori"\n')
+    with pytest.raises(SceneError, match="detection 'priori' needs a solid capsule") as error:
+        load_scene(text)
+    assert error.value.path == "collider[0].detection"

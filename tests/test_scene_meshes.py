@@ -167,19 +167,51 @@ spacing = 0.05
     assert any(type(d).__name__ == "Mesh" for d in scene.bodies["water"].drawables())
 
 
-def test_an_emitter_system_refuses_a_mesh_collider_and_names_it(tmp_path):
-    shared = EMITTER + '[[collider]]\ntype = "mesh"\npath = "square.obj"\n'
-    with pytest.raises(SceneError, match="emitter system 'spray'") as error:
-        load_scene(_write(tmp_path, shared))
-    assert error.value.path == "collider[0]"
-    assert "shared_colliders = false" in error.value.message
-    # Opting out of the shared colliders lets the mesh serve bodies only.
-    opted_out = shared.replace('name = "spray"', 'name = "spray"\nshared_colliders = false')
-    assert "spray" in load_scene(_write(tmp_path, opted_out)).systems
-    own = EMITTER + '  [[system.collider]]\n  type = "mesh"\n  path = "square.obj"\n'
-    with pytest.raises(SceneError, match="emitter system 'spray'") as error:
-        load_scene(_write(tmp_path, own))
-    assert error.value.path == "system[0].collider[0]"
+RAIN = """
+[scene]
+fps = 30
+duration = 1.0
+[[collider]]
+type = "mesh"
+path = "square.obj"
+restitution = 0.0
+[[system]]
+name = "rain"
+capacity = 500
+  [[system.emitter]]
+  position = [0, 1, 0]
+  shape = { type = "box", size = [1.0, 0.2, 1.0] }
+  rate = { type = "burst", count = 400 }
+  speed = 0.0
+  lifetime = 5
+  [[system.force]]
+  type = "gravity"
+"""
+
+
+def test_emitter_particles_land_on_a_shared_mesh_collider(tmp_path):
+    scene = load_scene(_write(tmp_path, RAIN))
+    collider = scene.systems["rain"].colliders[0]
+    assert isinstance(collider, TriangleMeshCollider) and collider.swept  # priori by default
+    for _ in range(scene.frame_count):
+        scene.advance()
+    y = scene.systems["rain"]["position"][:, 1]
+    assert len(y) == 400 and y.min() >= -1e-5 and y.max() < 0.01  # resting on the square
+    # Opting out of the shared colliders lets the mesh serve bodies only: the rain falls.
+    opted_out = RAIN.replace('name = "rain"', 'name = "rain"\nshared_colliders = false')
+    scene = load_scene(_write(tmp_path, opted_out))
+    for _ in range(scene.frame_count):
+        scene.advance()
+    assert scene.systems["rain"]["position"][:, 1].max() < -3.0
+
+
+def test_a_mesh_collider_of_a_system_kills_what_it_touches(tmp_path):
+    own = RAIN.replace('[[collider]]\ntype = "mesh"\npath = "square.obj"\nrestitution = 0.0\n', "")
+    own += '  [[system.collider]]\n  type = "mesh"\n  path = "square.obj"\n  response = "kill"\n'
+    scene = load_scene(_write(tmp_path, own))
+    for _ in range(scene.frame_count):
+        scene.advance()
+    assert len(scene.systems["rain"]) == 0
 
 
 def test_hair_refuses_a_mesh_collider(tmp_path):
@@ -197,7 +229,7 @@ def test_hair_refuses_a_mesh_collider(tmp_path):
 
 def test_mesh_collider_keys_are_checked(tmp_path):
     for key, message in (
-        ('response = "kill"', "unknown key; allowed here: type, path, scale, rotation"),
+        ("inside = true", r"unknown key; did you mean 'visible'\? allowed here: type, path"),
         ("thickness = -1", "must be >= 0"),
         ("scale = 0", "must be > 0"),
     ):

@@ -180,7 +180,7 @@ def fluid_projection(boundary, p):
     """Push-out by the fluid's boundary projection (radius 0)."""
     rows = fluids.boundaries.pack([boundary])
     x = np.ascontiguousarray(p.T)
-    fluids._kernels.project(*x, rows, 0.0, np.zeros(len(p)))
+    fluids.kernels.project(*x, rows, 0.0, np.zeros(len(p)))
     return x.T
 
 

@@ -8,6 +8,7 @@ modules, so an import of a package counts as an import of the modules it re-expo
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -151,6 +152,14 @@ def test_numba_flags_are_set_only_in_the_jit_module(flag):
             if isinstance(node, ast.Call) and any(k.arg == flag for k in node.keywords):
                 offenders.append(f"{path.relative_to(SRC)}:{node.lineno}")
     assert offenders == []
+
+
+def test_kernel_files_follow_one_naming_convention():
+    """``kernels.py`` or ``TOPIC_kernels.py``, never a private ``_kernels.py``."""
+    names = sorted(str(p.relative_to(SRC)) for p in PACKAGE.rglob("*kernels*.py"))
+    assert names, "no kernel files found"
+    odd = [n for n in names if not re.fullmatch(r"([a-z]+_)?kernels\.py", Path(n).name)]
+    assert odd == []
 
 
 def test_the_checks_see_a_known_edge():

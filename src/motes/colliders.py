@@ -1,5 +1,26 @@
-"""Colliders by their short names: ``motes.colliders.Plane``, ``.Sphere``, ``.Box``."""
+"""Colliders by their short names: ``motes.colliders.Plane``, ``.Sphere``, ``.Box``,
+``.Capsule``, ``.TriangleMeshCollider``."""
 
-from .collide.colliders import Box, Collider, Friction, Plane, Response, Sphere
+from .collide import (
+    Box,
+    Capsule,
+    Collider,
+    Detection,
+    Friction,
+    Plane,
+    Response,
+    Sphere,
+    TriangleMeshCollider,
+)
 
-__all__ = ["Box", "Collider", "Friction", "Plane", "Response", "Sphere"]
+__all__ = [
+    "Box",
+    "Capsule",
+    "Collider",
+    "Detection",
+    "Friction",
+    "Plane",
+    "Response",
+    "Sphere",
+    "TriangleMeshCollider",
+]

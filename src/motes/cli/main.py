@@ -341,7 +341,11 @@ def _run(args) -> int:
             else None
         )
         cache = (
-            outputs.enter_context(CacheWriter(args.export, scene=scene.name, seed=scene.seed))
+            outputs.enter_context(
+                CacheWriter(
+                    args.export, scene=scene.name, seed=scene.seed, overrides=scene.overrides
+                )
+            )
             if args.export
             else None
         )

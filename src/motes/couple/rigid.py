@@ -8,9 +8,8 @@ poses now, grown by ``thickness``. After an emitter system moves, each particle'
 over the step, from ``x - v Δt`` to ``x``, is tested against every row in that body's
 frame: the path starts where the body's rigid motion since the last exchange carried the
 start, so that a body that moved onto a particle is entered through the face it came
-with, not left through the nearest one. The tests are the slab test of the rigid world's
-swept detection (:func:`~motes.geometry.distance.segment_box`) and its ball twin
-(:func:`~motes.geometry.distance.segment_ball`); the earliest entry is the contact, so
+with, not left through the nearest one. The test is the one of every swept detection
+(:func:`~motes.geometry.sweep.first_hit`); the earliest entry is the contact, so
 neither a fast particle nor a fast body passes the other. A path that starts inside a
 grown shape and goes further in touches it at its start; a particle whose paths enter
 nothing but that ends inside a shape is put out where the signed distance
@@ -20,7 +19,7 @@ The particle, put at ``s`` on the grown surface with outward normal ``n``, and t
 exchange an impulse ``J`` at ``s``. With ``ρ = s - c`` from the body's centre of mass, the
 body's velocity there ``u = V + ω × ρ`` and its generalised inverse mass
 ``w(d) = 1/M + (ρ × d)ᵀ I⁻¹ (ρ × d)`` along a unit ``d``
-(:func:`motes.collide.bodies.body_weight`; Müller et al. 2020, eq. 2–3):
+(:func:`motes.rigid.body_contacts.body_weight`; Müller et al. 2020, eq. 2–3):
 
 - normal: ``j_n = -(1 + e) v_n / (1/m_p + w(n))`` when approaching, where ``v_n`` is the
   normal velocity of the particle relative to ``u``;
@@ -53,10 +52,11 @@ from numba import prange
 from .. import _validate as check
 from .._jit import block_bounds, block_count, device, parallel_kernel, serial_kernel
 from ..collide.between import KindContact
-from ..collide.bodies import body_weight
 from ..collide.swept import GAP
-from ..geometry.distance import row_signed_distance, segment_ball, segment_box
+from ..geometry.distance import row_signed_distance
 from ..geometry.layout import KIND, G, Kind, grown, pack_row, stack
+from ..geometry.sweep import first_hit
+from ..rigid.body_contacts import body_weight
 
 RESPONSES = ("bounce", "kill")
 
@@ -98,24 +98,20 @@ def _detect(n, x, v, dt, rows, before, out_row, out_p, out_n):
             for r in range(rows.shape[0]):
                 ax, ay, az = _carried(before, rows, r, bx, by, bz)
                 dx, dy, dz = px - ax, py - ay, pz - az
-                if int(rows[r, KIND]) == _BOX:
-                    enter, leave, nx, ny, nz = segment_box(rows, r, ax, ay, az, dx, dy, dz, 0.0)
-                else:
-                    cx, cy, cz, radius = rows[r, G], rows[r, G + 1], rows[r, G + 2], rows[r, G + 3]
-                    enter, leave = segment_ball(cx, cy, cz, radius, ax, ay, az, dx, dy, dz)
-                    sx, sy, sz = ax + enter * dx - cx, ay + enter * dy - cy, az + enter * dz - cz
-                    nx, ny, nz = sx / radius, sy / radius, sz / radius
-                if enter > leave or leave < 0.0 or enter > 1.0 or enter >= best:
+                kind = int(rows[r, KIND])
+                enter, nx, ny, nz = first_hit(
+                    kind, False, rows, r, ax, ay, az, dx, dy, dz, 0.0, 0.0, 0.0, 0.0, 1.0
+                )
+                if enter <= 1.0:
+                    if enter < best:
+                        best, best_r = enter, r
+                        hx, hy, hz = ax + enter * dx, ay + enter * dy, az + enter * dz
+                        fx, fy, fz = nx, ny, nz
                     continue
-                if enter >= 0.0:
-                    best, best_r = enter, r
-                    hx, hy, hz = ax + enter * dx, ay + enter * dy, az + enter * dz
-                    fx, fy, fz = nx, ny, nz
-                    continue
-                # The path starts inside the grown shape: it touches at its start if it
-                # goes further in (else it is leaving, or sliding along the surface).
+                # A path that starts inside the grown shape enters nothing: it touches at
+                # its start if it goes further in (else it is leaving, or sliding along).
                 dist, nx, ny, nz = row_signed_distance(rows, r, ax, ay, az, 1.0)
-                if dx * nx + dy * ny + dz * nz < 0.0:
+                if dist < 0.0 and best > 0.0 and dx * nx + dy * ny + dz * nz < 0.0:
                     best, best_r = 0.0, r
                     hx, hy, hz = ax - dist * nx, ay - dist * ny, az - dist * nz
                     fx, fy, fz = nx, ny, nz

@@ -124,7 +124,7 @@ class Tank(Boundary):
     def _shapes(self):
         # Five or six half-spaces rather than one inside box: each wall then takes its
         # own share of a particle's kernel (corners and edges overlap, see
-        # ``_kernels.walls``) and an open tank's walls rise without end.
+        # ``kernels.walls``) and an open tank's walls rise without end.
         shapes = []
         for axis in range(3):
             for sign, corner in ((1.0, self.lower), (-1.0, self.upper)):

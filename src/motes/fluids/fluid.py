@@ -22,7 +22,7 @@ from ..forces.apply import add_forces, check_force
 from ..forces.base import Force
 from ..spatial import UniformGrid
 from ..state import Field, ParticleState
-from . import _kernels
+from . import kernels
 from .boundaries import MeshWall, pack
 from .model import FluidModel
 
@@ -322,7 +322,7 @@ class Fluid:
         depth = np.zeros(n, np.float32)
         for reaction in self.reactions:
             reaction.pushed(predicted, radius, d["mass"][s.phase])
-        _kernels.project(*predicted, rows, radius, depth)
+        kernels.project(*predicted, rows, radius, depth)
 
         # Sort into the grid's order: neighbours then sit in nearby memory.
         grid = self._grid.build(predicted)
@@ -340,14 +340,14 @@ class Fluid:
         spare = np.empty((3, n), np.float32)
         inv_delta0 = 1.0 / d["delta0"]
         for _ in range(m.iterations):
-            _kernels.density_lambda(
+            kernels.density_lambda(
                 *predicted, offsets, nbr, weight, rows, h, m.spacing, d["wall_scale"],
                 inv_delta0, d["eps"], delta, lam,
             )  # fmt: skip
             # With reacting walls the push-out runs as its own pass, so that what it
             # moves can be counted (same result: each particle's push is its own).
             reacting = bool(self.reactions)
-            _kernels.correction(
+            kernels.correction(
                 *predicted, offsets, nbr, weight, lam, rows, h, m.spacing, d["wall_scale"],
                 inv_delta0, d["tensile_k"], d["inv_wq"], _NO_PUSH if reacting else radius,
                 spare,
@@ -359,7 +359,7 @@ class Fluid:
                         predicted, spare, lam, weight, masses, radius, h, m.spacing,
                         d["wall_scale"],
                     )  # fmt: skip
-                _kernels.project(*spare, rows, radius, np.empty(n, np.float32))
+                kernels.project(*spare, rows, radius, np.empty(n, np.float32))
             predicted, spare = spare, predicted
             lam_sum += lam
         rho0 = np.float32(m.phases[0].rest_density)
@@ -384,25 +384,25 @@ class Fluid:
         )
         if m.vorticity > 0:
             omega = np.empty((3, n), np.float32)
-            _kernels.vorticity(*s.positions, *s.velocities, offsets, nbr, delta, h, omega)
+            kernels.vorticity(*s.positions, *s.velocities, offsets, nbr, delta, h, omega)
             confined = np.empty_like(s.velocities)
-            _kernels.confinement(
+            kernels.confinement(
                 *s.positions, *s.velocities, offsets, nbr, delta, omega, h,
                 dt * m.vorticity * m.spacing, confined,
             )  # fmt: skip
             s.velocities = confined
         normals = np.zeros((3, n), np.float32)
         if d["cohesion"].max() > 0:
-            _kernels.surface_normals(*s.positions, offsets, nbr, s.phase, delta, h, normals)
+            kernels.surface_normals(*s.positions, offsets, nbr, s.phase, delta, h, normals)
         out = np.empty_like(s.velocities)
-        _kernels.exchange(
+        kernels.exchange(
             *s.positions, *s.velocities, offsets, nbr, s.phase, masses, delta, normals,
             d["cohesion"], coefficients, out,
         )  # fmt: skip
         s.velocities = out
         if rows.shape[0]:
             walls = np.array([h, radius, dt, m.phases[0].rest_density * m.spacing])
-            _kernels.boundary_velocity(*s.positions, *s.velocities, depth, rows, walls)
+            kernels.boundary_velocity(*s.positions, *s.velocities, depth, rows, walls)
         for reaction in self.reactions:
             reaction.end(dt)
         self.time += dt

@@ -27,14 +27,14 @@ from numba import prange
 
 from .._jit import block_bounds, block_count, parallel_kernel
 from ..geometry.distance import row_signed_distance
-from ._kernels import boundary_function
 from .boundaries import Boundary
+from .kernels import boundary_function
 from .sph import wall_share
 
 
 @boundary_function
 def _free_share(rows, x, y, z, h, spacing, scale):
-    """``Q``, the part of the kernel no wall takes (as ``_kernels.walls``)."""
+    """``Q``, the part of the kernel no wall takes (as ``kernels.walls``)."""
     free = 1.0
     for b in range(rows.shape[0]):
         d = row_signed_distance(rows, b, x, y, z, 1.0)[0]

@@ -8,9 +8,8 @@ It is written for the vectoriser and for float32: every constant comes from ``on
 (the caller's dtype; a Python literal would promote float32 arithmetic to float64), and
 choices between values are selects or branches whose both sides are cheap.
 
-Segment tests (:func:`segment_triangle`, :func:`segment_box`, :func:`segment_ball`)
-are the swept (a-priori) detection of every solver: a particle's path over a step
-against a shape.
+:func:`segment_triangle` tests a path against one triangle: the swept (a-priori)
+detection of :mod:`.sweep` uses it for meshes.
 
 The triangle-mesh query (:func:`mesh_distance`, a loop over grid cells and triangles)
 is float64 and a compiled function of its own, called rather than inlined: it costs far
@@ -214,61 +213,6 @@ def segment_triangle(ax, ay, az, dx, dy, dz, tri, t):
     if s < 0.0 or s > 1.0:
         return np.inf
     return s
-
-
-@device
-def segment_box(table, c, ax, ay, az, dx, dy, dz, grow):
-    """The part of the segment ``a + s d`` inside box row ``c`` grown by ``grow`` [m]
-    (the slab method, Kay & Kajiya 1986: the intersection of three slabs, square corners).
-
-    Returns ``(enter, leave, nx, ny, nz)``: the segment is inside for ``s`` in
-    ``[enter, leave]`` (empty when ``enter > leave``; unbounded ends are ``-inf`` and
-    ``inf``), and ``n`` is the outward normal of the face it enters through (zero when
-    ``enter`` is ``-inf``). float64.
-    """
-    enter = -np.inf
-    leave = np.inf
-    fx = fy = fz = 0.0
-    for a in range(3):
-        ux, uy, uz = table[c, G + 6 + 3 * a], table[c, G + 7 + 3 * a], table[c, G + 8 + 3 * a]
-        o = (ax - table[c, G]) * ux + (ay - table[c, G + 1]) * uy + (az - table[c, G + 2]) * uz
-        v = dx * ux + dy * uy + dz * uz
-        h = table[c, G + 3 + a] + grow
-        if v == 0.0:
-            if abs(o) > h:
-                return np.inf, -np.inf, 0.0, 0.0, 0.0
-            continue
-        t0 = (-h - o) / v
-        t1 = (h - o) / v
-        sign = -1.0
-        if t0 > t1:
-            t0, t1 = t1, t0
-            sign = 1.0
-        if t0 > enter:
-            enter = t0
-            fx, fy, fz = sign * ux, sign * uy, sign * uz
-        leave = min(leave, t1)
-    return enter, leave, fx, fy, fz
-
-
-@device
-def segment_ball(cx, cy, cz, radius, ax, ay, az, dx, dy, dz):
-    """The part ``[enter, leave]`` of the segment ``a + s d`` inside a ball (the roots of
-    ``|a + s d - c|² = radius²``); empty (``enter > leave``) when it misses, unbounded
-    (``-inf``, ``inf``) for a point ``d = 0`` inside. float64."""
-    ox, oy, oz = ax - cx, ay - cy, az - cz
-    dd = dx * dx + dy * dy + dz * dz
-    od = ox * dx + oy * dy + oz * dz
-    oo = ox * ox + oy * oy + oz * oz - radius * radius
-    if dd == 0.0:
-        if oo < 0.0:
-            return -np.inf, np.inf
-        return np.inf, -np.inf
-    disc = od * od - dd * oo
-    if disc < 0.0:
-        return np.inf, -np.inf
-    root = np.sqrt(disc)
-    return (-od - root) / dd, (-od + root) / dd
 
 
 @device

@@ -18,8 +18,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import _memory
 from .. import _validate as check
 from .._jit import threads_for
+from ..cloth.cloth import BYTES_PER_VERTEX
 from ..cloth.drivers import Keyframes
 from ..cloth.kernels import collide_kernel
 from ..cloth.strain import StrainLimiter
@@ -204,6 +206,12 @@ class Hair:
         self.head = head
         s = check.integer("strands", strands, low=1)
         p = check.integer("particles", particles, low=3)
+        # The implicit solve holds per particle about what a cloth's holds per vertex.
+        _memory.check(
+            f"strands × particles = {s} × {p}",
+            s * p * BYTES_PER_VERTEX,
+            per=f"about {BYTES_PER_VERTEX} B per particle",
+        )
         self.length = check.positive("length", length)
         if directions is None:
             directions = scalp_directions(s, seed=seed)

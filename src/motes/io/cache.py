@@ -19,6 +19,10 @@ key                shape         dtype       meaning
 ``motes_version``  ()            str         version of motes that wrote the file
 ``scene``          ()            str         scene name; ``""`` when not from a scene
 ``seed``           ()            int64       the scene's seed; ``-1`` when not given
+``overrides``      ()            str         the values set over the scene file's
+                                             (``motes run --set``), as a JSON object
+                                             of key path to value; ``"{}"`` for none
+                                             (absent in older files)
 ``times``          (F,)          float64     simulation time of each frame [s]
 ``names``          (S,)          str         entry names, in the order first given
 ``S/attributes``   (A,)          str         attributes recorded for ``S``: ``ids``,
@@ -74,6 +78,7 @@ Examples
 
 from __future__ import annotations
 
+import json
 import os
 import zipfile
 import zlib
@@ -163,6 +168,9 @@ class CacheWriter:
         Name of the scene the frames come from, recorded in the file.
     seed : int, optional
         The scene's seed (>= 0), recorded in the file.
+    overrides : Mapping[str, object], optional
+        Values set over the scene file's (key path -> value, as ``motes run --set``
+        gives them), recorded as JSON; values JSON cannot hold are recorded as text.
 
     Notes
     -----
@@ -173,7 +181,13 @@ class CacheWriter:
     """
 
     def __init__(
-        self, path, *, compress: bool = False, scene: str | None = None, seed: int | None = None
+        self,
+        path,
+        *,
+        compress: bool = False,
+        scene: str | None = None,
+        seed: int | None = None,
+        overrides: Mapping[str, object] | None = None,
     ):
         path = Path(path)
         if path.suffix.lower() != ".npz":
@@ -186,6 +200,9 @@ class CacheWriter:
         self.compress = bool(compress)
         self.scene = scene
         self.seed = None if seed is None else check.integer("seed", seed, low=0)
+        if overrides is not None and not isinstance(overrides, Mapping):
+            raise TypeError(f"overrides must be a mapping, got {type(overrides).__name__}")
+        self.overrides = json.dumps(dict(overrides or {}), default=str, sort_keys=True)
         self._layouts: dict[str, _Layout] | None = None
         # One record per frame, appended in one step (an interruption cannot leave a
         # frame half-recorded): (time, {name: {attribute: array}}).
@@ -253,6 +270,7 @@ class CacheWriter:
             _put(archive, "motes_version", np.array(__version__))
             _put(archive, "scene", np.array(self.scene or ""))
             _put(archive, "seed", np.array(-1 if self.seed is None else self.seed, np.int64))
+            _put(archive, "overrides", np.array(self.overrides))
             _put(archive, "times", np.array([t for t, _ in frames], dtype=np.float64))
             _put(archive, "names", np.array(list(self._layouts), dtype=str))
             for name, layout in self._layouts.items():
@@ -313,6 +331,9 @@ class Cache:
         Name of the scene the frames come from (None when not recorded).
     seed : int or None
         The scene's seed (None when not recorded).
+    overrides : dict
+        Values set over the scene file's (key path -> value; empty when none or not
+        recorded).
     motes_version : str or None
         Version of motes that wrote the file (None before format version 2).
     """
@@ -327,9 +348,11 @@ class Cache:
         version: int = VERSION,
         scene: str | None = None,
         seed: int | None = None,
+        overrides: dict | None = None,
         motes_version: str | None = None,
     ):
         self.times = times
+        self.overrides = dict(overrides or {})
         self.names = tuple(offsets)
         self.version = version
         self.scene = scene
@@ -540,4 +563,17 @@ def load_cache(path) -> Cache:
                 "seed": None if seed < 0 else seed,
                 "motes_version": str(get("motes_version")),
             }
+            if "overrides" in keys:
+                meta["overrides"] = _overrides(get("overrides"), shown)
     return Cache(times, offsets, arrays, fields, version=version, **meta)
+
+
+def _overrides(entry: np.ndarray, shown: str) -> dict:
+    """The ``overrides`` entry: a JSON object in a 0-d string array."""
+    try:
+        value = json.loads(str(entry)) if entry.shape == () and entry.dtype.kind == "U" else None
+    except json.JSONDecodeError:
+        value = None
+    if not isinstance(value, dict):
+        raise ValueError(f"{shown} is a damaged motes cache: 'overrides' is not a JSON object")
+    return value

@@ -1,7 +1,7 @@
 """Footprints of drawn particles: their pixel boxes, unit-peak weights and areas.
 
-Device functions shared by the particle rasteriser's kernels (:mod:`._sprite_kernels`,
-:mod:`._splat_kernels`) and the constants that describe a particle record.
+Device functions shared by the particle rasteriser's kernels (:mod:`.sprite_kernels`,
+:mod:`.splat_kernels`) and the constants that describe a particle record.
 
 Conventions (see :mod:`motes.render.camera`): pixel ``(row, col)`` has its centre at
 ``(col + 0.5, row + 0.5)``; depths are view depths [m]. Per-pixel arithmetic is float32

@@ -30,7 +30,7 @@ from .frame import Frame
 from .shading import SURFACE_SIZE, Material, pack_lights, rgb, surface_row
 from .tiles import bin_boxes
 
-__all__ = ["Box", "Ground", "Lines", "Mesh", "Sphere", "draw_geometry"]
+__all__ = ["Box", "Capsule", "Ground", "Lines", "Mesh", "Sphere", "draw_geometry"]
 
 DEFAULT_COLOR = (0.7, 0.7, 0.7)
 
@@ -201,6 +201,56 @@ class Sphere:
         """The icosphere scaled and moved into place, with exact sphere normals."""
         unit, faces = icosphere(self.subdivisions)
         positions = self.center + self.radius * unit
+        colors = _vertex_colors("color", self.color, len(unit))
+        return TriangleSet(positions, unit.astype(np.float32), colors, faces, self.surface)
+
+
+class Capsule:
+    """A capsule: every point within ``radius`` of the segment from ``a`` to ``b``.
+
+    Drawn as an icosphere whose two halves are moved to the ends: the triangles that
+    cross the equator stretch into the cylinder, and every vertex keeps its exact normal
+    (a capsule's normal is the sphere's on the caps and radial on the cylinder).
+
+    Parameters
+    ----------
+    a, b : (3,) array_like
+        Ends of the axis [m] (may coincide: a sphere).
+    radius : float
+        Radius [m], > 0.
+    color : colour
+        Linear RGB albedo.
+    subdivisions : int
+        Icosphere level in [0, 6] (3: 1,280 triangles).
+    material : Material, optional
+    """
+
+    def __init__(
+        self,
+        a=(0.0, 0.0, 0.0),
+        b=(0.0, 1.0, 0.0),
+        radius: float = 0.1,
+        *,
+        color=DEFAULT_COLOR,
+        subdivisions: int = 3,
+        material: Material | None = None,
+    ):
+        self.a = check.vector("a", a)
+        self.b = check.vector("b", b)
+        self.radius = check.positive("radius", radius)
+        self.color = rgb("color", color)
+        self.subdivisions = check.integer("subdivisions", subdivisions, low=0)
+        if self.subdivisions > 6:
+            raise ValueError(f"subdivisions must be <= 6, got {subdivisions}")
+        self.surface = surface_row(material, flat=False)
+
+    def triangles(self, camera: Camera) -> TriangleSet:
+        """The icosphere split at its equator across the axis, halves at ``a`` and ``b``."""
+        unit, faces = icosphere(self.subdivisions)
+        axis = self.b - self.a
+        toward_b = unit @ axis >= 0.0  # a vertex on the equator is the cylinder's b end
+        ends = np.where(toward_b[:, None], self.b, self.a)
+        positions = ends + self.radius * unit
         colors = _vertex_colors("color", self.color, len(unit))
         return TriangleSet(positions, unit.astype(np.float32), colors, faces, self.surface)
 
@@ -439,11 +489,11 @@ def draw_geometry(
     for i, obj in enumerate(objects):
         if isinstance(obj, Lines):
             line_sets.append(obj)
-        elif isinstance(obj, (Ground, Sphere, Box, Mesh)):
+        elif isinstance(obj, (Ground, Sphere, Capsule, Box, Mesh)):
             sets.append(obj.triangles(camera))
         else:
             raise TypeError(
-                f"objects[{i}] must be a Ground, Sphere, Box, Mesh or Lines, "
+                f"objects[{i}] must be a Ground, Sphere, Capsule, Box, Mesh or Lines, "
                 f"got {type(obj).__name__}"
             )
     positions, normals, colors, faces, face_surface, surfaces = _combine(sets)

@@ -54,10 +54,10 @@ Details
 How it is drawn
 ---------------
 All passes are compiled, parallel and free of write races, and the image does not
-depend on the number of threads. :func:`._sprite_kernels.project_kernel` projects and
+depend on the number of threads. :func:`.sprite_kernels.project_kernel` projects and
 measures the particles in fixed chunks. Additive footprints that reach at most half a
 tile beyond the 32 px tile holding their centre (nearly all particles of a fire or a
-spray) take a fast path (:mod:`._splat_kernels`): a counting sort by tile, then the tiles
+spray) take a fast path (:mod:`.splat_kernels`): a counting sort by tile, then the tiles
 are drawn in four phases by the parity of their column and row, tiles of one phase in
 parallel, each particle whole by one thread. The others, and all alpha-over particles
 (sorted far to near), are listed in every tile their pixel box overlaps
@@ -79,8 +79,8 @@ import numpy as np
 from .. import _validate as check
 from .._jit import threads_for
 from . import _footprint as fp
-from . import _splat_kernels as splat
-from . import _sprite_kernels as k
+from . import splat_kernels as splat
+from . import sprite_kernels as k
 from .camera import Camera
 from .frame import Frame
 from .tiles import CHUNK, TILE, bin_boxes, scan_counts
@@ -176,7 +176,7 @@ class SpriteStyle:
 
     @property
     def footprint(self) -> int:
-        """The kernels' footprint kind (``_sprite_kernels.POINT`` ...)."""
+        """The kernels' footprint kind (``sprite_kernels.POINT`` ...)."""
         if self.kind is SpriteKind.POINT:
             return fp.POINT
         if self.texture is not None:
@@ -482,7 +482,7 @@ def _parity_phases(tiles_x: int, tiles_y: int) -> list[np.ndarray]:
     """The fast path's four tile phases, by the parity of tile column and row.
 
     Tiles of one phase are two tiles apart, so footprints reaching half a tile beyond
-    their owners never meet (see :mod:`._splat_kernels`). Each phase is interleaved like
+    their owners never meet (see :mod:`.splat_kernels`). Each phase is interleaved like
     :func:`_tile_order`.
     """
     tx, ty = np.meshgrid(np.arange(tiles_x), np.arange(tiles_y))

@@ -10,12 +10,12 @@ Each substep of ``h`` (Jakobsen 2001, "Advanced Character Physics", §2–4):
 4. ``iterations`` times: one colour-by-colour sweep of the constraints
    (:mod:`motes.constrain`), the projection out of colliders
    (:mod:`motes.collide.contact`), the projection out of other bodies
-   (:mod:`motes.collide.bodies`), and the pins. Constraints and collisions relax
+   (:mod:`motes.rigid.body_contacts`), and the pins. Constraints and collisions relax
    together, as in Jakobsen's loop, so a body resting on the ground is rigid and
    outside it at once; particles added with :meth:`World.add_sphere_contacts` are
-   pushed apart from each other (:mod:`motes.collide.spheres`);
+   pushed apart from each other (:mod:`motes.rigid.sphere_contacts`);
 5. a velocity pass giving contacts with colliders and between spheres their
-   restitution (Müller et al. 2020, §3.5; :mod:`motes.collide.restitution`).
+   restitution (Müller et al. 2020, §3.5; :mod:`motes.rigid.restitution`).
 
 Every stage is a compiled kernel over float64 arrays. Float64 because position Verlet
 stores the velocity as the difference of two positions: in float32, 10 m from the
@@ -31,18 +31,18 @@ import numpy as np
 
 from .. import _validate as check
 from .._jit import threads_for
-from ..collide.bodies import body_contacts
 from ..collide.contact import Detection, check_collider, pack, project_contacts
-from ..collide.restitution import restitute_contacts
-from ..collide.spheres import project_spheres, restitute_spheres
 from ..collide.swept import sweep_contacts
 from ..constrain import ConstraintBuilder, Pins
 from ..forces.apply import add_forces, check_force
 from ..geometry.layout import RESTITUTION, SWEPT
 from ..state import Field, ParticleState
+from .body_contacts import body_contacts
 from .kernels import verlet
 from .motion import RigidMotion, impulse_velocities, rigid_motion
+from .restitution import restitute_contacts
 from .shapes import BodyShape
+from .sphere_contacts import project_spheres, restitute_spheres
 from .transform import body_transforms
 
 
@@ -169,7 +169,7 @@ class World:
         one ``group`` (default: a group of its own) do not collide with each other.
         ``radius`` [m] is the contact radius of its particles: by default 1 % of the
         shape's smallest extent, so bodies resting face to face still touch (see
-        :mod:`motes.collide.bodies`).
+        :mod:`motes.rigid.body_contacts`).
         """
         if not isinstance(shape, BodyShape):
             raise TypeError(f"shape must be a BodyShape, got {type(shape).__name__}")
@@ -309,7 +309,7 @@ class World:
         The collider's ``friction`` is the Coulomb mu of the depth-based friction; its
         ``restitution`` is kept of the normal speed of a hit, found before the move
         (swept) or after it (a velocity pass after the relaxation, see
-        :mod:`motes.collide.restitution`)."""
+        :mod:`motes.rigid.restitution`)."""
         self._detections.append(check_collider(collider, detection))
         self._colliders.append(collider)
         self._built = None
@@ -330,7 +330,7 @@ class World:
         """Let particles collide with each other as spheres of their radius.
 
         Every pair among all particles added this way is tested (``O(k²)``: for tens to
-        hundreds of balls or bobs; see :mod:`motes.collide.spheres`). ``restitution`` in
+        hundreds of balls or bobs; see :mod:`motes.rigid.sphere_contacts`). ``restitution`` in
         [0, 1] is kept for the normal velocity of a pair (the smaller of the two).
         """
         idx = np.atleast_1d(np.asarray(indices))
@@ -600,7 +600,7 @@ class World:
             "bounce": bool(len(table) and table[:, RESTITUTION].any()) or bool(sphere_e.any()),
             "before": np.zeros((3, n)),
         }
-        # Body rotations warm-start the compiled refinement (see collide.bodies).
+        # Body rotations warm-start the compiled refinement (see rigid.body_contacts).
         self._built["rotation"] = np.ascontiguousarray(self.transforms()[1])
         return self._built
 

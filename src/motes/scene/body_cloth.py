@@ -14,12 +14,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..cloth import Airflow, Cloth, Keyframes, SpringFamily
+from ..collide import TriangleMeshCollider
 from ..hair import Hair, Head
 from ..integrate.implicit import ImplicitEuler, SolverError
 from ..render import geometry
 from ..render.shading import Material
 from .bodies import Body, BuildContext, register
-from .parts import MESH_SUFFIXES, body_forces, euler_rotation, is_mesh_collider
+from .parts import MESH_SUFFIXES, body_forces, euler_rotation
 from .schema import (
     SceneError,
     Table,
@@ -296,7 +297,7 @@ def _hair_colliders(table: Table, context: BuildContext) -> list:
     if not table.get("colliders", boolean, True):
         return []
     for collider in context.colliders:
-        if is_mesh_collider(collider):
+        if isinstance(collider, TriangleMeshCollider):
             raise SceneError(
                 table.key_path("colliders"),
                 "hair collides with planes, spheres and boxes, not with the scene's "

@@ -9,7 +9,8 @@ every particle of the world.
 Keys every type reads: ``iterations`` (relaxation iterations, default 10), ``substeps``
 (world substeps per scene step, default 1), ``projection`` (``"shake"`` or
 ``"jakobsen"``), ``damping`` [1/s], ``gravity``, ``detection`` (``"posteriori"`` or
-``"priori"``: how the shared colliders are found) and ``[[body.force]]`` tables.
+``"priori"``: how the shared colliders are found, by default each collider's own) and
+``[[body.force]]`` tables.
 """
 
 from __future__ import annotations
@@ -135,7 +136,8 @@ def read_world(table: Table, context: BuildContext) -> rigid.World:
         projection=table.get("projection", one_of("shake", "jakobsen"), "shake"),
         forces=body_forces(table),
     )
-    detection = table.get("detection", one_of("posteriori", "priori"), "posteriori")
+    # Unset: each collider's own (its table's ``detection``; posteriori but for meshes).
+    detection = table.get("detection", one_of("posteriori", "priori"), None)
     for collider in context.colliders:
         build(table.path, world.add_collider, collider, detection)  # errors name the body
     return world
@@ -259,7 +261,7 @@ def pendulums(table: Table, context: BuildContext) -> RigidScene:
     """A Newton's cradle: a row of sphere bobs on V-shaped strings, the first pulled
     back. The bobs collide as spheres with restitution (a velocity pass after the
     relaxation), hung a little apart so that they meet pair by pair and the blow passes
-    down the row to the last bob (see :mod:`motes.collide.spheres`)."""
+    down the row to the last bob (see :mod:`motes.rigid.sphere_contacts`)."""
     world = read_world(table, context)
     count = table.get("count", integer(1, 20), 5)
     length = table.get("length", positive(), 1.0)

@@ -142,6 +142,13 @@ def _drawable(obj: SceneObject):
         return geometry.Mesh(p["mesh"], color=color)
     if obj.kind == "sphere":
         return geometry.Sphere(p.get("center", (0.0, 0.0, 0.0)), p.get("radius", 1.0), color=color)
+    if obj.kind == "capsule":
+        return geometry.Capsule(
+            p.get("a", (0.0, 0.0, 0.0)),
+            p.get("b", (0.0, 1.0, 0.0)),
+            p.get("radius", 0.1),
+            color=color,
+        )
     rotation = p.get("matrix")
     if rotation is None and "rotation" in p:
         from .parts import euler_rotation

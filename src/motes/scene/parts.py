@@ -12,8 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import emit, forces, life
-from ..collide import colliders
+from .. import colliders, emit, forces, life
 from ..emit import shapes
 from ..integrate import Integrator
 from ..life.events import KINDS
@@ -332,7 +331,7 @@ def collider(table: Table, base: Path):
     """A collider; returns ``(collider, drawable, colour)``: ``drawable`` is ``None`` for
     a hidden collider, else what to draw (the collider, or for a mesh its
     ``TriangleMesh``). Mesh files are read relative to ``base``."""
-    kind = table.get("type", one_of("plane", "sphere", "box", "mesh"))
+    kind = table.get("type", one_of("plane", "sphere", "box", "capsule", "mesh"))
     result = _mesh_collider(table, base) if kind == "mesh" else _shape_collider(table, kind)
     visible = table.get("visible", boolean, False)
     tint = table.get("color", color, (0.6, 0.6, 0.6, 1.0))
@@ -357,16 +356,25 @@ def _mesh_collider(table: Table, base: Path):
         cell_size=table.get("cell_size", positive(), None),
         restitution=table.get("restitution", number(0.0), 0.5),
         friction=table.get("friction", number(0.0), 0.0),
+        response=table.get("response", one_of(*_RESPONSES), "bounce"),
+        detection=table.get("detection", one_of(*_DETECTIONS), "priori"),
     )
 
 
+_RESPONSES = ("bounce", "stick", "kill", "event")
+_DETECTIONS = ("posteriori", "priori")
+
+
 def _shape_collider(table: Table, kind: str):
+    # A capsule's friction acts on the penetration depth, as a rigid world needs it.
+    friction_model = "depth" if kind == "capsule" else "scale"
     response = {
         "restitution": table.get("restitution", number(0.0), 0.5),
         "friction": table.get("friction", number(0.0), 0.0),
-        "friction_model": table.get("friction_model", one_of("scale", "depth"), "scale"),
-        "response": table.get("response", one_of("bounce", "stick", "kill", "event"), "bounce"),
+        "friction_model": table.get("friction_model", one_of("scale", "depth"), friction_model),
+        "response": table.get("response", one_of(*_RESPONSES), "bounce"),
         "inside": table.get("inside", boolean, False),
+        "detection": table.get("detection", one_of(*_DETECTIONS), "posteriori"),
     }
     if kind == "plane":
         return build(
@@ -385,6 +393,15 @@ def _shape_collider(table: Table, kind: str):
             table.get("radius", positive(), 1.0),
             **response,
         )
+    if kind == "capsule":
+        return build(
+            table.path,
+            colliders.Capsule,
+            table.get("a", vector(), (0.0, 0.0, 0.0)),
+            table.get("b", vector(), (0.0, 1.0, 0.0)),
+            table.get("radius", positive(), 0.1),
+            **response,
+        )
     return build(
         table.path,
         colliders.Box,
@@ -393,13 +410,6 @@ def _shape_collider(table: Table, kind: str):
         rotation=table.get("rotation", euler_rotation, None),
         **response,
     )
-
-
-def is_mesh_collider(collider) -> bool:
-    """Whether ``collider`` is a triangle mesh (which emitter systems cannot take)."""
-    from ..collide.mesh import TriangleMeshCollider
-
-    return isinstance(collider, TriangleMeshCollider)
 
 
 # --- life ---------------------------------------------------------------------------------

@@ -415,6 +415,7 @@ _OBJECT_KEYS = {
         "checker_size": positive(),
     },
     "sphere": {"center": vector(), "radius": positive()},
+    "capsule": {"a": vector(), "b": vector(), "radius": positive()},
     "box": {"center": vector(), "size": lambda v, p: tuple(_sizes(v, p)), "rotation": vector()},
 }
 
@@ -430,9 +431,6 @@ def _object(table: Table) -> SceneObject:
     return SceneObject(kind, params, tint)
 
 
-_COLLIDER_OBJECTS = {"plane": "ground", "sphere": "sphere", "box": "box"}
-
-
 def _collider_object(collider, tint) -> SceneObject:
     """The drawable twin of a visible collider (a mesh collider passes its mesh)."""
     if not isinstance(collider, Collider):
@@ -446,6 +444,12 @@ def _collider_object(collider, tint) -> SceneObject:
     if kind == "sphere":
         return SceneObject(
             "sphere", {"center": tuple(collider.center), "radius": float(collider.radius)}, tint
+        )
+    if kind == "capsule":
+        return SceneObject(
+            "capsule",
+            {"a": tuple(collider.a), "b": tuple(collider.b), "radius": float(collider.radius)},
+            tint,
         )
     return SceneObject(
         "box",
@@ -514,14 +518,12 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
             system.add(parts.modifier(m))
         for c in t.tables("collider"):
             collider, drawn, tint = parts.collider(c, base)
-            _refuse_mesh(collider, c.path, system_name)
-            system.add(collider)
+            build(c.path, system.add, collider)
             if drawn is not None:
                 objects.append(_collider_object(drawn, tint))
         if t.get("shared_colliders", boolean, True):
             for c, path in zip(shared, shared_paths, strict=True):
-                _refuse_mesh(c, path, system_name, shared=True)
-                system.add(c)
+                build(path, system.add, c)
         pending_children.extend((system, c) for c in t.tables("child"))
         pending_contacts.extend((system_name, system, c) for c in t.tables("contact"))
         looks[system_name] = _look(t.table("render", optional=True), base)
@@ -594,22 +596,6 @@ def _contact(table: Table, bodies: dict[str, Body], system_name: str):
 
 def _no_bodies(value, path):
     raise SceneError(path, f"names body {shown(value)}, but the scene has no [[body]]")
-
-
-def _refuse_mesh(collider, path: str, system_name: str, *, shared: bool = False) -> None:
-    """Emitter systems collide in the fused step kernel, which has no triangle meshes."""
-    if parts.is_mesh_collider(collider):
-        hint = (
-            f"set shared_colliders = false in system {shown(system_name)}, or use the mesh "
-            "with bodies only"
-            if shared
-            else "use planes, spheres or boxes here"
-        )
-        raise SceneError(
-            path,
-            f"a triangle-mesh collider cannot act on the emitter system {shown(system_name)} "
-            f"(meshes collide with rigid, cloth and fluid bodies only); {hint}",
-        )
 
 
 def _default_name(origin: str) -> str:

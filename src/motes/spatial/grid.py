@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _validate
-from . import _kernels
+from . import kernels
 
 #: Cells are enlarged by this relative margin so that two points at most ``cell_size``
 #: apart never fall two cells apart through the round-off of ``(x - origin) / cell``.
@@ -149,8 +149,8 @@ class UniformGrid:
             self.sorted_positions = np.empty((3, n), np.float32)
         if self.cell_start.shape[0] != cells + 1:
             self.cell_start = np.empty(cells + 1, np.int64)
-        _kernels.cell_keys(x, y, z, lo, 1.0 / cell, dims, self._keys)
-        _kernels.counting_sort(self._keys, self.cell_start, self.order)
+        kernels.cell_keys(x, y, z, lo, 1.0 / cell, dims, self._keys)
+        kernels.counting_sort(self._keys, self.cell_start, self.order)
         np.take(pos, self.order, axis=1, out=self.sorted_positions)
         return self
 
@@ -191,7 +191,7 @@ class UniformGrid:
                 self._found = np.empty(self._buffer.shape[0], np.int64)
             buffer, found = self._buffer[:nq], self._found[:nq]
             sx, sy, sz = self.sorted_positions
-            _kernels.query_radius(
+            kernels.query_radius(
                 *q, sx, sy, sz, self.cell_start, self.origin, 1.0 / self.cell, self.dims,
                 radius * radius, exclude_self, buffer, found,
             )  # fmt: skip
@@ -210,7 +210,7 @@ class UniformGrid:
         offsets = np.zeros(nq + 1, np.int64)
         np.cumsum(found[row_of], out=offsets[1:])
         indices = np.empty(int(offsets[-1]), np.int32)
-        _kernels.compact_rows(buffer, found, row_of, entry_map, offsets, indices)
+        kernels.compact_rows(buffer, found, row_of, entry_map, offsets, indices)
         return Neighbors(offsets, indices)
 
 

@@ -88,7 +88,7 @@ def splat_kernel(kind: int, streak: bool, window: int):
     it draws the particles of one of the tile's lists, each whole, clipped to the image
     only: list ``b = LISTS * t + l`` is ``records[starts[b]:starts[b + 1]]``, where ``l``
     is the index of ``window`` in :data:`WINDOWS` (0 = footprints of any size). The other
-    arguments are as in :func:`._sprite_kernels.draw_kernel` (``texture`` is a dummy);
+    arguments are as in :func:`.sprite_kernels.draw_kernel` (``texture`` is a dummy);
     ``color`` and ``depth`` must be C-contiguous.
 
     Each list has its own kernel: with the unrolled and the general loop in one kernel,

@@ -4,7 +4,7 @@ Launchers live in :mod:`motes.render.sprites`. Every pass is free of write races
 
 1. :func:`project_kernel`, parallel over fixed chunks of particles: project each particle
    (and its streak tail), cull it and write one record row. Small additive footprints
-   go to the fast path (:mod:`._splat_kernels`): the record keeps their energy and the
+   go to the fast path (:mod:`.splat_kernels`): the record keeps their energy and the
    tile holding their box's centre is counted. Every other particle is measured here
    (the scale that gives it its energy) and gets its pixel box for tile binning;
 2. :func:`gather_rows`, parallel over blocks of slots: copy the general records into the
@@ -63,13 +63,13 @@ from ._footprint import (
     segment_offset,
     texture_sample,
 )
-from ._splat_kernels import LISTS, WINDOWS
 from .camera import FAR, HEIGHT, NEAR, WIDTH, to_screen
+from .splat_kernels import LISTS, WINDOWS
 from .tiles import CHUNK, TILE
 
 #: How far [px] a fast-path footprint may reach beyond the tile that owns it. Tiles of
 #: one parity class are two tiles apart, so with a reach of half a tile their footprints
-#: never share a pixel and can be drawn in parallel (see :mod:`._splat_kernels`).
+#: never share a pixel and can be drawn in parallel (see :mod:`.splat_kernels`).
 MARGIN = TILE // 2
 
 # Per-chunk status columns written by the projection.
@@ -175,7 +175,7 @@ def _project_range(
         particles; ``col1 < col0`` for the others.
     tile_of : (n,) int32, output
         The fast-path list of each particle: ``LISTS * tile + l`` for list ``l`` of the
-        tile that owns it (see :mod:`._splat_kernels`); -1 for the other particles.
+        tile that owns it (see :mod:`.splat_kernels`); -1 for the other particles.
     counts : (chunks, LISTS * tiles) int64, output
         Fast-path particles per chunk and list (zeroed by the caller).
     status : (chunks, 4) int64, output
@@ -269,7 +269,7 @@ def _project_range(
             record[i, TAIL_Y] = ty32
             record[i, TAIL_DEPTH] = tdepth
         if fast and kind != TEXTURE:
-            # The fast path's lists (see _splat_kernels): the smallest window that holds the
+            # The fast path's lists (see splat_kernels): the smallest window that holds the
             # box, whose footprint is drawn over that whole window, or the list of larger
             # ones. The tile holding the centre of the clipped box (or window) owns the
             # particle if it stays within MARGIN of the tile.

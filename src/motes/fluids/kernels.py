@@ -22,7 +22,7 @@ from numba import prange
 from .._jit import block_bounds, block_count, called, device, parallel_kernel
 from ..geometry.distance import row_signed_distance
 from ..geometry.layout import ADHESION, FRICTION, FRICTION_MODEL
-from ..spatial._kernels import cell_coordinate
+from ..spatial.kernels import cell_coordinate
 from .sph import poly6, spiky, spiky_gradient_scale, wall_share
 
 #: Akinci et al. 2013, eq. 2: cohesion spline normalisation, 32 / π.
