@@ -80,7 +80,8 @@ def test_ordered_sum_adds_in_its_documented_order(count, dtype):
 #: Few kernels (emission, the fused step, curl noise), so a cold compile takes seconds, and
 #: enough particles (14,400 by the last frame) that two threads share the work.
 #: Curl noise is there because its kernel is the one whose cached copy rounded differently
-#: when fast-math let LLVM reassociate (docs/architecture.md, "Threads and determinism").
+#: when fast-math let LLVM reassociate (docs/architecture.md, "Threads and determinism");
+#: the swept sphere because its step kernel once missed the cache in every process.
 SMALL_SCENE = """\
 [scene]
 duration = 0.8
@@ -106,16 +107,26 @@ capacity = 30000
   strength = 1.3
   scale = 0.3
   time_scale = 1.0
+
+  [[system.collider]]
+  type = "sphere"
+  center = [0.0, 0.6, 0.0]
+  radius = 0.15
+  detection = "priori"
 """
 
 
-def run_in_subprocess(args, *, cache: Path, threads: int) -> None:
+def run_in_subprocess(args, *, cache: Path, threads: int) -> str:
     """``python -m motes run ARGS`` in a fresh interpreter that compiles into, or loads from,
-    ``cache`` and runs ``threads`` Numba threads."""
+    ``cache`` and runs ``threads`` Numba threads; returns Numba's cache log (stdout)."""
     source = str(Path(motes.__file__).resolve().parents[1])
     path = os.pathsep.join(p for p in (source, os.environ.get("PYTHONPATH")) if p)
     env = dict(
-        os.environ, NUMBA_CACHE_DIR=str(cache), NUMBA_NUM_THREADS=str(threads), PYTHONPATH=path
+        os.environ,
+        NUMBA_CACHE_DIR=str(cache),
+        NUMBA_NUM_THREADS=str(threads),
+        NUMBA_DEBUG_CACHE="1",
+        PYTHONPATH=path,
     )
     result = subprocess.run(
         [sys.executable, "-m", "motes", "run", *map(str, args), "--quiet"],
@@ -125,6 +136,7 @@ def run_in_subprocess(args, *, cache: Path, threads: int) -> None:
         check=False,
     )
     assert result.returncode == 0, result.stderr[-3000:]
+    return result.stdout
 
 
 def differing_arrays(a: Path, b: Path) -> list[str]:
@@ -155,9 +167,11 @@ def test_cold_and_cached_kernels_on_one_or_two_threads_give_identical_exports(tm
     outputs = {}
     for name, threads in runs.items():
         outputs[name] = tmp_path / f"{len(outputs)}.npz"
-        run_in_subprocess(
+        log = run_in_subprocess(
             [scene, "--no-render", "--export", outputs[name]], cache=cache, threads=threads
         )
+        if name.startswith("cached"):  # every kernel loaded: none compiled and saved again
+            assert "data saved" not in log, [x for x in log.splitlines() if "data saved" in x]
     with np.load(outputs["cold, 2 threads"]) as export:
         last_frame = np.diff(export["plume/offsets"])[-1]
     assert last_frame > SERIAL_BELOW  # so two threads did share the work

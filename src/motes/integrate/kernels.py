@@ -24,7 +24,7 @@ from functools import cache
 import numpy as np
 from numba import prange
 
-from .._jit import block_bounds, block_count, device, parallel_kernel
+from .._jit import block_bounds, block_count, called, device, parallel_kernel
 from ..collide.colliders import Friction, Response
 from ..collide.response import respond
 from ..geometry.distance import mesh_distance, signed_distance
@@ -75,6 +75,174 @@ def field_acceleration(vx, vy, vz, w, params, quadratic):
     return ax, ay, az
 
 
+# Called, not inlined: inlined into the parallel loop it quadrupled the kernel's
+# compile time (38 s against 9 s for one swept plane), and the swept loop does not
+# vectorise either way. It lives at module level and takes the structure as arguments:
+# a function made inside step_kernel would be a closure cell of the kernel, which
+# Numba's disk cache keys by a pickle that differs in every process (no cache hit).
+@called
+def sweep(
+    structure,
+    x0,
+    y0,
+    z0,
+    px,
+    py,
+    pz,
+    vx,
+    vy,
+    vz,
+    ax,
+    ay,
+    az,
+    params,
+    table,
+    tri,
+    cell_start,
+    cell_tris,
+    dt,
+    one,
+):
+    """The step's path against the swept colliders: at the earliest entry the
+    particle responds at that time and moves on for the rest of the step.
+
+    ``structure`` is ``(kinds, insides, responses, frictions, sweeps, any_mesh,
+    explicit)`` as :func:`step_kernel` unpacks it. Returns position, velocity, the
+    collider hit (-1: none) and whether it dies."""
+    kinds, insides, responses, frictions, sweeps, any_mesh, explicit = structure
+    zero = one - one
+    half = one / (one + one)
+    dx = px - x0
+    dy = py - y0
+    dz = pz - z0
+    # The path under the constant acceleration a: x(f) = x0 + (d - b) f + b f².
+    bend = half * dt * dt
+    bx = ax * bend
+    by = ay * bend
+    bz = az * bend
+    best = one + one
+    hit = -1
+    nx = ny = nz = off = zero
+    for c in range(len(sweeps)):
+        if sweeps[c]:
+            if any_mesh:
+                if kinds[c] == _MESH:
+                    f, mx, my, mz, mo = mesh_first_hit(
+                        table[c],
+                        tri,
+                        cell_start,
+                        cell_tris,
+                        float(x0),
+                        float(y0),
+                        float(z0),
+                        float(dx),
+                        float(dy),
+                        float(dz),
+                        0.0,
+                    )
+                else:
+                    f, mx, my, mz = first_hit(
+                        kinds[c],
+                        insides[c],
+                        table,
+                        c,
+                        x0,
+                        y0,
+                        z0,
+                        dx,
+                        dy,
+                        dz,
+                        bx,
+                        by,
+                        bz,
+                        zero,
+                        one,
+                    )
+                    mo = zero
+            else:
+                f, mx, my, mz = first_hit(
+                    kinds[c],
+                    insides[c],
+                    table,
+                    c,
+                    x0,
+                    y0,
+                    z0,
+                    dx,
+                    dy,
+                    dz,
+                    bx,
+                    by,
+                    bz,
+                    zero,
+                    one,
+                )
+                mo = zero
+            if f < best:
+                best, hit, nx, ny, nz, off = f, c, mx, my, mz, mo
+    if hit < 0:
+        return px, py, pz, vx, vy, vz, -1, False
+    response = responses[hit]
+    if response == _EVENT:
+        return px, py, pz, vx, vy, vz, hit, False
+    # Entry point on the path, a gap (and a mesh shell's stand-off) off the surface.
+    stand = off + params[GAP_AT]
+    hx = x0 + (dx - bx) * best + bx * best * best + stand * nx
+    hy = y0 + (dy - by) * best + by * best * best + stand * ny
+    hz = z0 + (dz - bz) * best + bz * best * best + stand * nz
+    if response == _KILL:
+        return hx, hy, hz, vx, vy, vz, hit, True
+    if response == _STICK:
+        return hx, hy, hz, zero, zero, zero, hit, False
+    # Velocity at the entry: the path's start velocity (d - b)/dt plus a t.
+    t = best * dt
+    wx = (dx - bx) / dt + ax * t
+    wy = (dy - by) / dt + ay * t
+    wz = (dz - bz) / dt + az * t
+    wn = wx * nx + wy * ny + wz * nz
+    tx = wx - wn * nx
+    ty = wy - wn * ny
+    tz = wz - wn * nz
+    e = table[hit, RESTITUTION]
+    mu = table[hit, FRICTION]
+    wn = min(wn, zero)
+    if frictions[hit] == _DEPTH:
+        # Coulomb: the tangential speed drops by mu times the normal speed change.
+        vt = np.sqrt(tx * tx + ty * ty + tz * tz)
+        scale = max(vt + mu * (one + e) * wn, zero) / (vt + (vt == zero) * one)
+    else:
+        scale = one - mu
+    ux = tx * scale - e * wn * nx
+    uy = ty * scale - e * wn * ny
+    uz = tz * scale - e * wn * nz
+    # The rest of the step, on the new parabola from the entry point.
+    rest = dt - t
+    px = hx + ux * rest + half * ax * rest * rest
+    py = hy + uy * rest + half * ay * rest * rest
+    pz = hz + uz * rest + half * az * rest * rest
+    # The stored velocity is the scheme's own: the mean velocity over the step just
+    # ended (semi-implicit Euler, Verlet) or over the next one (explicit Euler), so
+    # the next step continues on the same parabola.
+    lag = rest + half * dt if explicit else rest - half * dt
+    vx = ux + ax * lag
+    vy = uy + ay * lag
+    vz = uz + az * lag
+    # A slow particle pulled back within the same step (coming to rest) stays on the
+    # contact's tangent plane rather than crossing a shell no later test would find.
+    back = min((px - hx) * nx + (py - hy) * ny + (pz - hz) * nz, zero)
+    vn = min(vx * nx + vy * ny + vz * nz, zero)
+    return (
+        px - back * nx,
+        py - back * ny,
+        pz - back * nz,
+        vx - vn * nx,
+        vy - vn * ny,
+        vz - vn * nz,
+        hit,
+        False,
+    )
+
+
 @cache
 def step_kernel(
     scheme: int,
@@ -110,164 +278,7 @@ def step_kernel(
     # Multi-stage schemes move the particles before the kernel: no path to sweep.
     any_swept = moving and any(sweeps)
     any_mesh = _MESH in kinds[:n_colliders]
-
-    @device
-    def sweep(
-        x0,
-        y0,
-        z0,
-        px,
-        py,
-        pz,
-        vx,
-        vy,
-        vz,
-        ax,
-        ay,
-        az,
-        params,
-        table,
-        tri,
-        cell_start,
-        cell_tris,
-        dt,
-        one,
-    ):
-        """The step's path against the swept colliders: at the earliest entry the
-        particle responds at that time and moves on for the rest of the step.
-
-        Returns position, velocity, the collider hit (-1: none) and whether it dies."""
-        zero = one - one
-        half = one / (one + one)
-        dx = px - x0
-        dy = py - y0
-        dz = pz - z0
-        # The path under the constant acceleration a: x(f) = x0 + (d - b) f + b f².
-        bend = half * dt * dt
-        bx = ax * bend
-        by = ay * bend
-        bz = az * bend
-        best = one + one
-        hit = -1
-        nx = ny = nz = off = zero
-        for c in range(n_colliders):
-            if sweeps[c]:
-                if any_mesh:
-                    if kinds[c] == _MESH:
-                        f, mx, my, mz, mo = mesh_first_hit(
-                            table[c],
-                            tri,
-                            cell_start,
-                            cell_tris,
-                            float(x0),
-                            float(y0),
-                            float(z0),
-                            float(dx),
-                            float(dy),
-                            float(dz),
-                            0.0,
-                        )
-                    else:
-                        f, mx, my, mz = first_hit(
-                            kinds[c],
-                            insides[c],
-                            table,
-                            c,
-                            x0,
-                            y0,
-                            z0,
-                            dx,
-                            dy,
-                            dz,
-                            bx,
-                            by,
-                            bz,
-                            zero,
-                            one,
-                        )
-                        mo = zero
-                else:
-                    f, mx, my, mz = first_hit(
-                        kinds[c],
-                        insides[c],
-                        table,
-                        c,
-                        x0,
-                        y0,
-                        z0,
-                        dx,
-                        dy,
-                        dz,
-                        bx,
-                        by,
-                        bz,
-                        zero,
-                        one,
-                    )
-                    mo = zero
-                if f < best:
-                    best, hit, nx, ny, nz, off = f, c, mx, my, mz, mo
-        if hit < 0:
-            return px, py, pz, vx, vy, vz, -1, False
-        response = responses[hit]
-        if response == _EVENT:
-            return px, py, pz, vx, vy, vz, hit, False
-        # Entry point on the path, a gap (and a mesh shell's stand-off) off the surface.
-        stand = off + params[GAP_AT]
-        hx = x0 + (dx - bx) * best + bx * best * best + stand * nx
-        hy = y0 + (dy - by) * best + by * best * best + stand * ny
-        hz = z0 + (dz - bz) * best + bz * best * best + stand * nz
-        if response == _KILL:
-            return hx, hy, hz, vx, vy, vz, hit, True
-        if response == _STICK:
-            return hx, hy, hz, zero, zero, zero, hit, False
-        # Velocity at the entry: the path's start velocity (d - b)/dt plus a t.
-        t = best * dt
-        wx = (dx - bx) / dt + ax * t
-        wy = (dy - by) / dt + ay * t
-        wz = (dz - bz) / dt + az * t
-        wn = wx * nx + wy * ny + wz * nz
-        tx = wx - wn * nx
-        ty = wy - wn * ny
-        tz = wz - wn * nz
-        e = table[hit, RESTITUTION]
-        mu = table[hit, FRICTION]
-        wn = min(wn, zero)
-        if frictions[hit] == _DEPTH:
-            # Coulomb: the tangential speed drops by mu times the normal speed change.
-            vt = np.sqrt(tx * tx + ty * ty + tz * tz)
-            scale = max(vt + mu * (one + e) * wn, zero) / (vt + (vt == zero) * one)
-        else:
-            scale = one - mu
-        ux = tx * scale - e * wn * nx
-        uy = ty * scale - e * wn * ny
-        uz = tz * scale - e * wn * nz
-        # The rest of the step, on the new parabola from the entry point.
-        rest = dt - t
-        px = hx + ux * rest + half * ax * rest * rest
-        py = hy + uy * rest + half * ay * rest * rest
-        pz = hz + uz * rest + half * az * rest * rest
-        # The stored velocity is the scheme's own: the mean velocity over the step just
-        # ended (semi-implicit Euler, Verlet) or over the next one (explicit Euler), so
-        # the next step continues on the same parabola.
-        lag = rest + half * dt if explicit else rest - half * dt
-        vx = ux + ax * lag
-        vy = uy + ay * lag
-        vz = uz + az * lag
-        # A slow particle pulled back within the same step (coming to rest) stays on the
-        # contact's tangent plane rather than crossing a shell no later test would find.
-        back = min((px - hx) * nx + (py - hy) * ny + (pz - hz) * nz, zero)
-        vn = min(vx * nx + vy * ny + vz * nz, zero)
-        return (
-            px - back * nx,
-            py - back * ny,
-            pz - back * nz,
-            vx - vn * nx,
-            vy - vn * ny,
-            vz - vn * nz,
-            hit,
-            False,
-        )
+    structure = (kinds, insides, responses, frictions, sweeps, any_mesh, explicit)
 
     @parallel_kernel
     def kernel(
@@ -338,6 +349,7 @@ def step_kernel(
                 last_hit = -1
                 if any_swept:
                     px, py, pz, vx, vy, vz, swept_hit, swept_kill = sweep(
+                        structure,
                         x0,
                         y0,
                         z0,
