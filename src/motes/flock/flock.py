@@ -19,6 +19,12 @@ from .rules import Limits, Rule
 #: the grid's keys, order and sorted copy), rounded up.
 BYTES_PER_BOID = 4 * 3 * 9 + 8 * 3 + 4 * 3 + 32
 
+#: Default rules (radius [m], weight [1/s], field of view [degrees]) and limits.
+SEPARATION = Rule(0.5, 4.0, 300.0)
+ALIGNMENT = Rule(1.5, 2.0, 270.0)
+COHESION = Rule(2.0, 1.0, 270.0)
+LIMITS = Limits()
+
 
 class Flock:
     """A flock of boids (Reynolds 1987) steered by rules and behaviours (Reynolds 1999).
@@ -76,10 +82,10 @@ class Flock:
         positions,
         velocities=None,
         *,
-        separation: Rule = Rule(0.5, 4.0, 300.0),
-        alignment: Rule = Rule(1.5, 2.0, 270.0),
-        cohesion: Rule = Rule(2.0, 1.0, 270.0),
-        limits: Limits = Limits(),
+        separation: Rule = SEPARATION,
+        alignment: Rule = ALIGNMENT,
+        cohesion: Rule = COHESION,
+        limits: Limits = LIMITS,
         radius: float = 0.1,
         flap_frequency: float = 6.0,
         bank_time: float = 0.2,

@@ -484,7 +484,7 @@ def interact(
                         d2 = dx * dx + dy * dy + dz * dz
                         if d2 > r2:
                             continue
-                        if mode == _AVOID or mode == _EVADE:
+                        if mode <= _EVADE:  # _AVOID or _EVADE
                             d = np.sqrt(d2)
                             if mode == _EVADE:
                                 # Flee where the predator will be when it could reach us.
@@ -499,7 +499,7 @@ def interact(
                         elif d2 < best or nearest < 0:
                             best = d2
                             nearest = j
-            if mode == _AVOID or mode == _EVADE:
+            if mode <= _EVADE:  # _AVOID or _EVADE
                 s = w * max_speed
                 acc[0, i] += s * px
                 acc[1, i] += s * py
