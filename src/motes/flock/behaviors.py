@@ -264,7 +264,8 @@ class Pursue(Interaction):
 @dataclass
 class FollowLeader(Interaction):
     """Arrive at a point ``behind`` [m] behind the nearest of ``other``'s boids (the
-    leaders) within ``radius`` (Reynolds 1999, leader following)."""
+    leaders) within ``radius`` (Reynolds 1999, leader following), slowing over the last
+    ``behind`` metres (at least 0.5 m)."""
 
     behind: float = 2.0
     mode = Mode.FOLLOW

@@ -176,35 +176,44 @@ def _follow_path(ax, ay, az, x, y, z, vx, vy, vz, w, table, k, path, max_speed):
 @called
 def _avoid(x, y, z, vx, vy, vz, hx, hy, hz, colliders, p, max_speed):
     """Obstacle avoidance acceleration [m/s²]: probe ahead, steer sideways; push out
-    when already within the margin."""
+    when already within the margin. Also whether a collider is near enough that the
+    step's move may bring the boid within its radius (then the keep-out runs)."""
     zero = np.float32(0.0)
+    one = np.float32(1.0)
     ax = ay = az = zero
-    if colliders.shape[0] == 0:
-        return ax, ay, az
     ahead = np.float32(p[AVOID_LOOKAHEAD])
     margin = np.float32(p[AVOID_MARGIN])
     gain = np.float32(p[AVOID_W]) * max_speed / margin
+    # Signed distances change at most as fast as the point moves (they are
+    # 1-Lipschitz), so a probe ``|v| · lookahead`` away cannot be within the margin of
+    # a shape this far, nor a move of ``max_speed · dt`` reach within the radius.
+    reach = margin + np.sqrt(vx * vx + vy * vy + vz * vz) * ahead
+    near_by = np.float32(p[RADIUS] + p[MAX_SPEED] * p[DT])
+    near = False
     qx, qy, qz = x + vx * ahead, y + vy * ahead, z + vz * ahead
     for c in range(colliders.shape[0]):
-        d, nx, ny, nz = row_signed_distance(colliders, c, x, y, z, np.float32(1.0))
+        d, nx, ny, nz = row_signed_distance(colliders, c, x, y, z, one)
+        near |= d < near_by
+        if d >= reach:
+            continue
         if d < margin:
             s = gain * (margin - d)
             ax += s * nx
             ay += s * ny
             az += s * nz
-        d, nx, ny, nz = row_signed_distance(colliders, c, qx, qy, qz, np.float32(1.0))
+        d, nx, ny, nz = row_signed_distance(colliders, c, qx, qy, qz, one)
         if d < margin:
             along = nx * hx + ny * hy + nz * hz
             lx, ly, lz = nx - along * hx, ny - along * hy, nz - along * hz
             length = np.sqrt(lx * lx + ly * ly + lz * lz)
             if length < np.float32(1e-3):  # head-on: any side will do, the same each time
                 lx, ly, lz = _perpendicular(hx, hy, hz)
-                length = np.float32(1.0)
+                length = one
             s = gain * (margin - d) / length
             ax += s * lx
             ay += s * ly
             az += s * lz
-    return ax, ay, az
+    return ax, ay, az, near
 
 
 @called
@@ -388,8 +397,9 @@ def step(
                 ax += tx
                 ay += ty
                 az += tz
+            near = False
             if colliders.shape[0] > 0:
-                tx, ty, tz = _avoid(x, y, z, vx, vy, vz, hx, hy, hz, colliders, p, max_speed)
+                tx, ty, tz, near = _avoid(x, y, z, vx, vy, vz, hx, hy, hz, colliders, p, max_speed)
                 ax += tx
                 ay += ty
                 az += tz
@@ -422,7 +432,7 @@ def step(
             speed = min(max(speed, min_speed), max_speed)
             wx, wy, wz = ux * speed, uy * speed, uz * speed
             nx, ny, nz = x + wx * dt, y + wy * dt, z + wz * dt
-            if colliders.shape[0] > 0:
+            if near:
                 nx, ny, nz, wx, wy, wz = _keep_out(nx, ny, nz, wx, wy, wz, colliders, radius)
                 s2 = wx * wx + wy * wy + wz * wz
                 if s2 > np.float32(1e-12):
@@ -498,7 +508,7 @@ def interact(
                             pz -= uz
                         elif d2 < best or nearest < 0:
                             best = d2
-                            nearest = j
+                            nearest = np.int64(j)
             if mode <= _EVADE:  # _AVOID or _EVADE
                 s = w * max_speed
                 acc[0, i] += s * px
@@ -516,7 +526,9 @@ def interact(
                     bx, by, bz = _toward(ovx, ovy, ovz, np.float32(extra_param))
                     dx, dy, dz = ox - bx - x, oy - by - y, oz - bz - z
                     dist = np.sqrt(dx * dx + dy * dy + dz * dz)
-                    ux, uy, uz = _toward(dx, dy, dz, max_speed * min(one, dist / r))
+                    # Slowing over the following distance (at least 0.5 m) as arrive does.
+                    ramp = max(np.float32(extra_param), np.float32(0.5))
+                    ux, uy, uz = _toward(dx, dy, dz, max_speed * min(one, dist / ramp))
                 acc[0, i] += w * (ux - vx)
                 acc[1, i] += w * (uy - vy)
                 acc[2, i] += w * (uz - vz)
