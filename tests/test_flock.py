@@ -144,8 +144,8 @@ def flock_state(threads, seed=7, steps=20):
         prey = Flock.in_box(20_000, (-15, -15, -15), (15, 15, 15), speed=5.0, seed=seed)
         falcon = Flock.in_box(3, (-2, -2, -2), (2, 2, 2), speed=8.0, seed=seed + 1,
                               limits=Limits(5.0, 15.0, 40.0, 360.0))  # fmt: skip
-        prey.add(Wander(1.0, 2.0, 3.0, 1.0), Evade(falcon, 6.0, 4.0),
-                 Contain((-20,) * 3, (20,) * 3), AvoidColliders([Sphere((0, 0, 0), 3.0)]))  # fmt: skip
+        prey.add(Wander(1.0, 2.0, 3.0, 1.0), Evade(falcon, 6.0, 4.0))
+        prey.add(Contain((-20,) * 3, (20,) * 3), AvoidColliders([Sphere((0, 0, 0), 3.0)]))
         falcon.add(Pursue(prey, 10.0, 3.0))
         for _ in range(steps):
             prey.step(1 / 60)
