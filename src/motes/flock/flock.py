@@ -122,7 +122,8 @@ class Flock:
         rng = np.random.default_rng(self.seed)
         #: Wing-beat phase [rad], shape (n,).
         self.flap = rng.uniform(0, 2 * np.pi, n).astype(np.float32)
-        #: Bank angle [rad] (positive rolls the right wing down), shape (n,).
+        #: Bank angle [rad], positive rolling the right wing down (into a right turn;
+        #: the right is heading × y), shape (n,).
         self.bank = np.zeros(n, np.float32)
         #: Neighbours each boid saw in the last step, shape (n,) int32.
         self.neighbor_count = np.zeros(n, np.int32)

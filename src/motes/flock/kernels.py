@@ -442,8 +442,9 @@ def step(
             vel_out[0, i], vel_out[1, i], vel_out[2, i] = wx, wy, wz
             head_out[0, i], head_out[1, i], head_out[2, i] = ux, uy, uz
             # Bank into the turn: tan(bank) = lateral acceleration / g, the lateral
-            # acceleration being speed × yaw rate (the heading's turn about +y).
-            yaw = (hz * ux - hx * uz) / dt
+            # acceleration being speed × yaw rate, the yaw rate positive turning right
+            # (clockwise seen from above: the right being heading × y).
+            yaw = (hx * uz - hz * ux) / dt
             target = np.arctan(speed * yaw / gravity)
             bank[i] += (target - bank[i]) * bank_rate
             phase = flap[i] + flap_step * speed

@@ -551,6 +551,8 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         if body_name in systems or body_name in bodies:
             raise SceneError(t.key_path("name"), f"duplicate name {shown(body_name)}")
         bodies[body_name] = body
+    for body in bodies.values():
+        body.link(bodies)
 
     for system_name, system, c in pending_contacts:
         system.add(_contact(c, bodies, system_name))

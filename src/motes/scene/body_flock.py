@@ -1,0 +1,275 @@
+"""``[[body]] type = "flock"``: boids in a scene (keys in ``docs/scene-format.md``,
+section "Flock bodies").
+
+A flock is built from its table: where the boids start (``center``, ``extent``,
+``speed``, ``direction``), Reynolds' three rules (``[body.separation]``,
+``[body.alignment]``, ``[body.cohesion]``), the limits, and its steering behaviours as
+arrays of tables (``[[body.seek]]``, ``[[body.wander]]``, ``[[body.contain]]``, ...).
+Behaviours toward another flock (``[[body.pursue]]``, ``[[body.evade]]``,
+``[[body.avoid]]``, ``[[body.follow]]``) name it by its body name; they are linked once
+every body is built (:meth:`FlockBody.link`). The scene's colliders are avoided unless
+``colliders = false``.
+
+Drawn as birds (a mesh of every boid, :mod:`motes.flock.bird`), lit flat, optionally
+fading with distance into a haze colour, or as round sprites.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import flock as fl
+from ..flock.bird import VERTICES, bird_vertices, faces
+from ..render import geometry
+from ..render.shading import Material
+from ..render.sprites import SpriteStyle
+from ..state import Field
+from .bodies import Body, BuildContext, register
+from .parts import is_mesh_collider
+from .schema import (
+    SceneError,
+    Table,
+    array_of,
+    boolean,
+    build,
+    color,
+    integer,
+    number,
+    one_of,
+    positive,
+    shown,
+    vector,
+)
+
+#: Most boids in one flock body (the scene fuzzer's bound on counts).
+MAX_BOIDS = 10_000_000
+
+#: Keys of each interaction table -> its class.
+_INTERACTIONS = {
+    "pursue": fl.Pursue,
+    "evade": fl.Evade,
+    "avoid": fl.Avoid,
+    "follow": fl.FollowLeader,
+}
+
+
+class FlockBody(Body):
+    """A :class:`~motes.flock.Flock` in a scene."""
+
+    def __init__(self, flock: fl.Flock, *, draw, color, wingspan, flap, haze, camera, pending):
+        self.flock = flock
+        self.draw = draw
+        self.color = np.asarray(color[:3], np.float32)
+        self.wingspan = wingspan
+        self.flap = flap
+        self.haze = haze  # None or (colour (3,), distance [m])
+        self.camera_position = np.asarray(camera.position, np.float64)
+        self.pending = pending  # [(path, cls, flock name, options)] until link()
+        self.material = Material(specular=0.0)
+        self._faces = np.zeros((0, 3), np.int32)
+        self.sprite_style = SpriteStyle(blend="alpha")
+
+    def link(self, bodies: dict) -> None:
+        for path, cls, name, options in self.pending:
+            other = bodies.get(name)
+            if not isinstance(other, FlockBody):
+                flocks = sorted(n for n, b in bodies.items() if isinstance(b, FlockBody))
+                raise SceneError(
+                    f"{path}.flock",
+                    f"must name a flock body ({', '.join(map(repr, flocks))}), got {shown(name)}",
+                )
+            if other is self:
+                raise SceneError(f"{path}.flock", "must name another flock, not this one")
+            self.flock.add(build(path, cls, other.flock, **options))
+        self.pending = []
+
+    def step(self, dt: float) -> None:
+        self.flock.step(dt)
+        if not np.isfinite(self.flock.position).all():
+            raise FloatingPointError("boid positions are no longer finite")
+
+    def _colors(self, per: int) -> np.ndarray:
+        """(n · per, 3) linear RGB: the flock's colour, hazed with distance."""
+        n = self.flock.n
+        if self.haze is None:
+            return np.broadcast_to(self.color, (n * per, 3))
+        haze, distance = self.haze
+        d = np.linalg.norm(self.flock.position - self.camera_position[:, None], axis=0)
+        t = (1.0 - np.exp(-d / distance)).astype(np.float32)[:, None]
+        rgb = (1 - t) * self.color + t * haze
+        return np.repeat(rgb, per, axis=0)
+
+    def drawables(self) -> list:
+        if self.draw != "birds" or self.flock.n == 0:
+            return []
+        from ..geometry.mesh import TriangleMesh
+
+        f = self.flock
+        n = f.n
+        vertices = np.empty((n * VERTICES, 3), np.float32)
+        normals = np.empty_like(vertices)
+        bird_vertices(f.position, f.heading, f.bank, f.flap, self.wingspan, self.flap, vertices,
+                      normals)  # fmt: skip
+        if self._faces.shape[0] != n * (len(faces(1))):
+            self._faces = faces(n)
+        mesh = TriangleMesh(vertices, self._faces, normals)
+        return [
+            geometry.Mesh(
+                mesh, vertex_colors=self._colors(VERTICES), smooth=False, material=self.material
+            )
+        ]
+
+    def particles(self) -> list:
+        if self.draw != "sprites":
+            return []
+        state = self.flock.particle_state()
+        rgba = np.ones((4, state.count), np.float32)
+        rgba[:3] = self._colors(1).T
+        return [(state.replace(color=Field(rgba, "1", "linear RGBA")), self.sprite_style)]
+
+    def particle_state(self):
+        return self.flock.particle_state()
+
+    def count(self) -> int:
+        return self.flock.n
+
+
+def _rule(table: Table, key: str, default: fl.Rule) -> fl.Rule:
+    t = table.table(key, optional=True)
+    if t is None:
+        return default
+    rule = build(
+        t.path,
+        fl.Rule,
+        radius=t.get("radius", positive(), default.radius),
+        weight=t.get("weight", number(0.0), default.weight),
+        fov=t.get("fov", number(0.0, 360.0, low_open=True), default.fov),
+    )
+    t.finish()
+    return rule
+
+
+_REQUIRED = object()
+
+#: Target behaviours: table key -> (class, [(key, reader, default), ...] in argument order).
+_TARGETS = {
+    "seek": (fl.Seek, [("target", vector(), _REQUIRED), ("weight", number(0.0), 1.0)]),
+    "flee": (fl.Flee, [("target", vector(), _REQUIRED), ("radius", positive(), 5.0),
+                       ("weight", number(0.0), 1.0)]),
+    "arrive": (fl.Arrive, [("target", vector(), _REQUIRED), ("slowing_radius", positive(), 5.0),
+                           ("weight", number(0.0), 1.0)]),
+    "wander": (fl.Wander, [("radius", positive(), 1.0), ("distance", number(0.0), 2.0),
+                           ("jitter", number(0.0), 2.0), ("weight", number(0.0), 1.0)]),
+    "contain": (fl.Contain, [("low", vector(), _REQUIRED), ("high", vector(), _REQUIRED),
+                             ("margin", positive(), 2.0), ("weight", number(0.0), 2.0)]),
+    "path": (fl.FollowPath, [("points", array_of(vector(), min_length=2), _REQUIRED),
+                             ("radius", positive(), 1.0), ("lookahead", number(0.0), 0.5),
+                             ("lead", number(0.0), 2.0), ("weight", number(0.0), 1.0)]),
+}  # fmt: skip
+
+
+def _targets(table: Table) -> list:
+    out = []
+    for key, (cls, fields) in _TARGETS.items():
+        for t in table.tables(key):
+            values = {
+                name: t.get(name, reader) if default is _REQUIRED else t.get(name, reader, default)
+                for name, reader, default in fields
+            }
+            t.finish()
+            out.append(build(t.path, cls, **values))
+    return out
+
+
+def _pending(table: Table) -> list:
+    pending = []
+    for key, cls in _INTERACTIONS.items():
+        for t in table.tables(key):
+            name = t.get("flock", _name)
+            options = {
+                "radius": t.get("radius", positive(), 5.0),
+                "weight": t.get("weight", number(0.0), 2.0),
+            }
+            if key == "follow":
+                options["behind"] = t.get("behind", number(0.0), 2.0)
+            t.finish()
+            pending.append((t.path, cls, name, options))
+    return pending
+
+
+def _name(value, path):
+    if not isinstance(value, str) or not value:
+        raise SceneError(path, f"must be the name of a flock body, got {shown(value)}")
+    return value
+
+
+@register("flock")
+def build_flock(table: Table, context: BuildContext) -> FlockBody:
+    """Boids uniform in a box, with their rules, limits and behaviours."""
+    count = table.get("count", integer(0, MAX_BOIDS))
+    center = np.asarray(table.get("center", vector(), (0.0, 0.0, 0.0)))
+    extent = np.asarray(table.get("extent", vector(), (10.0, 10.0, 10.0)))
+    if np.any(extent < 0):
+        raise SceneError(
+            table.key_path("extent"), f"must be >= 0 on every axis, got {extent.tolist()}"
+        )
+    limits = build(
+        table.path,
+        fl.Limits,
+        min_speed=table.get("min_speed", number(0.0), 0.0),
+        max_speed=table.get("max_speed", positive(), 10.0),
+        max_acceleration=table.get("max_acceleration", positive(), 20.0),
+        max_turn_rate=table.get("max_turn_rate", positive(), 360.0),
+    )
+    direction = table.get("direction", vector(), None)
+    flock = build(
+        table.path,
+        fl.Flock.in_box,
+        count,
+        center - extent / 2,
+        center + extent / 2,
+        speed=table.get("speed", number(0.0), 1.0),
+        direction=direction,
+        seed=context.seed,
+        separation=_rule(table, "separation", fl.flock.SEPARATION),
+        alignment=_rule(table, "alignment", fl.flock.ALIGNMENT),
+        cohesion=_rule(table, "cohesion", fl.flock.COHESION),
+        limits=limits,
+        radius=table.get("radius", positive(), 0.1),
+        flap_frequency=table.get("flap_frequency", number(0.0), 6.0),
+        bank_time=table.get("bank_time", positive(), 0.2),
+    )
+    flock.add(*_targets(table))
+    if table.get("colliders", boolean, True) and context.colliders:
+        for collider in context.colliders:
+            if is_mesh_collider(collider):
+                raise SceneError(
+                    table.key_path("colliders"),
+                    "flocks avoid planes, spheres, boxes and capsules, not the scene's "
+                    "triangle-mesh collider; set colliders = false",
+                )
+        flock.add(
+            build(
+                table.path,
+                fl.AvoidColliders,
+                list(context.colliders),
+                lookahead=table.get("avoid_lookahead", number(0.0), 1.0),
+                margin=table.get("avoid_margin", positive(), 2.0),
+                weight=table.get("avoid_weight", number(0.0), 4.0),
+            )
+        )
+    haze_color = table.get("haze_color", color, None)
+    haze_distance = table.get("haze_distance", positive(), 100.0)
+    haze = None
+    if haze_color is not None:
+        haze = (np.asarray(haze_color[:3], np.float32), haze_distance)
+    return FlockBody(
+        flock,
+        draw=table.get("draw", one_of("birds", "sprites"), "birds"),
+        color=table.get("color", color, (0.02, 0.02, 0.025, 1.0)),
+        wingspan=table.get("wingspan", positive(), 4 * flock.radius),
+        flap=table.get("flap", number(0.0, 2.0), 1.0),
+        haze=haze,
+        camera=context.camera,
+        pending=_pending(table),
+    )
