@@ -141,7 +141,12 @@ def _drawable(obj: SceneObject):
     if obj.kind == "mesh":
         return geometry.Mesh(p["mesh"], color=color)
     if obj.kind == "sphere":
-        return geometry.Sphere(p.get("center", (0.0, 0.0, 0.0)), p.get("radius", 1.0), color=color)
+        return geometry.Sphere(
+            p.get("center", (0.0, 0.0, 0.0)),
+            p.get("radius", 1.0),
+            color=color,
+            subdivisions=p.get("subdivisions", 3),
+        )
     rotation = p.get("matrix")
     if rotation is None and "rotation" in p:
         from .parts import euler_rotation

@@ -414,7 +414,7 @@ _OBJECT_KEYS = {
         "checker": color,
         "checker_size": positive(),
     },
-    "sphere": {"center": vector(), "radius": positive()},
+    "sphere": {"center": vector(), "radius": positive(), "subdivisions": integer(0, 6)},
     "box": {"center": vector(), "size": lambda v, p: tuple(_sizes(v, p)), "rotation": vector()},
 }
 
