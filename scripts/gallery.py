@@ -26,6 +26,7 @@ STILL_AT = {
     "curtain": 0.85,
     "hair": 0.35,
     "ragdoll_stairs": 0.2,
+    "starlings": 0.9,
 }
 
 

@@ -11,7 +11,7 @@ from ..spatial._kernels import compact_rows
 from ..spatial.grid import Neighbors, UniformGrid
 from ..state import Field, ParticleState
 from . import kernels
-from .behaviors import TARGETS, AvoidColliders, Interaction, pack_targets
+from .behaviors import TARGETS, AvoidColliders, Interaction, Wander, pack_targets
 from .rules import Limits, Rule
 
 #: Bytes per boid of a flock's arrays (three state rows and their next-step copies,
@@ -143,6 +143,7 @@ class Flock:
         self._grid = UniformGrid(self._cell_size())
         self._next = [np.empty_like(pos) for _ in range(3)]
         self._extra = np.zeros_like(pos)
+        self._spare: dict = {}
 
     @property
     def n(self) -> int:
@@ -159,6 +160,8 @@ class Flock:
         """Add steering behaviours (:mod:`motes.flock.behaviors`); returns self."""
         for b in behaviors:
             if isinstance(b, TARGETS):
+                if isinstance(b, Wander) and not any(isinstance(t, Wander) for t in self.targets):
+                    self.wander = self.heading.copy()  # kept in step only while wandering
                 self.targets.append(b)
             elif isinstance(b, Interaction):
                 if b.other is self:
@@ -179,15 +182,26 @@ class Flock:
         grid.cell_size = self._cell_size()
         grid.build(self.position)
         order = grid.order
-        self.position, grid.sorted_positions = grid.sorted_positions, self.position
-        for name in ("velocity", "heading", "wander"):
-            setattr(self, name, np.take(getattr(self, name), order, axis=1))
-        for name in ("ids", "flap", "bank", "neighbor_count"):
-            setattr(self, name, np.take(getattr(self, name), order))
-        for name, f in self.attributes.items():
-            self.attributes[name] = Field(np.take(f.data, order, axis=-1), f.unit, f.doc)
         # The grid keeps the pre-sort array as its buffer for the next build: the sorted
         # positions, the step's output and the grid's buffer rotate through three arrays.
+        self.position, grid.sorted_positions = grid.sorted_positions, self.position
+        rows = ["velocity", "heading"]
+        if any(isinstance(b, Wander) for b in self.targets):
+            rows.append("wander")
+        for name in rows:
+            src = getattr(self, name)
+            dst = self._spare.get(src.shape)
+            if dst is None or dst is src:
+                dst = np.empty_like(src)
+            kernels.permute_rows(src, order, dst)
+            setattr(self, name, dst)
+            self._spare[src.shape] = src
+        self.ids = np.take(self.ids, order)
+        packed = np.empty((2, self.n), np.float32)
+        kernels.permute_rows(np.stack([self.flap, self.bank]), order, packed)
+        self.flap, self.bank = packed[0], packed[1]
+        for name, f in self.attributes.items():
+            self.attributes[name] = Field(np.take(f.data, order, axis=-1), f.unit, f.doc)
 
     def _params(self, dt: float) -> np.ndarray:
         p = np.zeros(kernels.PARAMS)
