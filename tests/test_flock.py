@@ -322,3 +322,36 @@ def test_an_empty_flock_steps():
     flock = Flock(np.zeros((3, 0)))
     flock.step(DT)
     assert flock.particle_state().count == 0 and flock.polarization() == 0.0
+
+
+def test_birds_point_along_their_heading_and_bank_into_turns():
+    from motes.flock.bird import TRIANGLES, VERTICES, bird_vertices, faces
+
+    pos = np.zeros((3, 2), np.float32)
+    head = np.array([[1, 0], [0, 0], [0, 1]], np.float32)  # +x, then +z
+    bank = np.array([0.0, 0.5], np.float32)  # the second rolls its right wing down
+    flap = np.full(2, np.pi / 2 + 0.6, np.float32)  # the tip at the top of its beat
+    out = np.empty((2 * VERTICES, 3), np.float32)
+    normals = np.empty_like(out)
+    bird_vertices(pos, head, bank, flap, 1.0, 0.0, out, normals)  # amplitude 0: a glide
+    first, second = out[:VERTICES], out[VERTICES:]
+    np.testing.assert_allclose(first[0], (0.17, 0, 0), atol=1e-6)  # nose ahead
+    # Heading +x: the right (heading × y) is +z; wing tips at ±half the span.
+    np.testing.assert_allclose(first[14], (-0.16, 0, 0.5), atol=1e-6)
+    np.testing.assert_allclose(first[9], (-0.16, 0, -0.5), atol=1e-6)
+    # Heading +z: the right is -x; banked by 0.5 rad the right tip is 0.5 sin 0.5 down.
+    np.testing.assert_allclose(second[0], (0, 0, 0.17), atol=1e-6)
+    np.testing.assert_allclose(second[14][:2], (-0.5 * np.cos(0.5), -0.5 * np.sin(0.5)), atol=1e-6)
+    assert second[9][1] > 0  # the left tip up
+    np.testing.assert_allclose(normals[VERTICES], (-np.sin(0.5), np.cos(0.5), 0), atol=1e-6)
+    assert faces(2).shape == (2 * TRIANGLES, 3) and faces(2).max() == 2 * VERTICES - 1
+    bird_vertices(pos, head, bank, flap, 1.0, 1.0, out, normals)
+    assert out[9, 1] > 0.3  # beating: the tip raised by 0.35 of the span at this phase
+
+
+def test_a_right_turn_banks_the_right_wing_down():
+    flock = Flock(np.zeros((3, 1)), np.array([[5.0], [0.0], [0.0]]), bank_time=0.05,
+                  limits=Limits(5.0, 5.0, 50.0, 90.0))  # fmt: skip
+    flock.add(Seek((0, 0, 100), 5.0))  # far to the right of +x (the right being +z)
+    run(flock, 0.3)
+    assert flock.heading[2, 0] > 0.1 and flock.bank[0] > 0.3  # turning right, banked right
