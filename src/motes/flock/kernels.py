@@ -4,9 +4,10 @@ neighbour lists.
 The flock keeps its boids in the order of a :class:`motes.spatial.UniformGrid` built
 over their positions at the start of each step (cell edge = the largest rule radius),
 so a boid's neighbours are in the 27 cells around its own, nine runs of consecutive
-slots, read from nearby memory. Every kernel runs ``prange`` over fixed blocks of boids
-(:mod:`motes._jit`); each boid writes only its own outputs and reads the state at the
-start of the step, so results do not depend on the thread count.
+slots, read from nearby memory. Kernels run ``prange`` over fixed blocks of boids
+(:mod:`motes._jit`), the step over rows of cells; each boid writes only its own outputs,
+reads the state at the start of the step and sums over its neighbours in a fixed order
+(elementwise loops alone vectorise), so results do not depend on the thread count.
 
 A neighbour ``j`` of boid ``i`` under a rule of radius ``r`` and half field of view
 ``θ`` is ``j != i`` with ``|d| <= r`` and ``d · h_i >= cos θ · |d|``, where
@@ -30,7 +31,7 @@ from ..spatial._kernels import cell_coordinate
     PARAMS,
 ) = range(25)  # fmt: skip
 
-#: Candidates whose distances one pass of the step tests before the rules run on the hits.
+#: Initial capacity of the step's neighbourhood scratch is four times this (it grows as needed).
 CHUNK = 128
 
 _SEEK, _FLEE, _ARRIVE, _WANDER, _CONTAIN, _PATH = range(6)
@@ -267,7 +268,6 @@ def step(
     neighbors : (n,) int32
         Boids each one saw (the largest of the three rules' neighbour counts).
     """
-    n = pos.shape[1]
     zero = np.float32(0.0)
     one = np.float32(1.0)
     nx_, ny_, nz_ = dims[0], dims[1], dims[2]
@@ -294,161 +294,192 @@ def step(
     # Rows as 1-D arrays: the inner loop then indexes without the 2-D stride.
     qx_, qy_, qz_ = pos[0], pos[1], pos[2]
     wx_, wy_, wz_ = vel[0], vel[1], vel[2]
-    step_ = np.uint64(CHUNK)
-    for block in prange(block_count(n)):
-        start, stop = block_bounds(block, n)
-        d2s = np.empty(CHUNK, np.float32)
-        hits = np.empty(CHUNK, np.uint64)
-        for i in range(start, stop):
-            x, y, z = pos[0, i], pos[1, i], pos[2, i]
-            vx, vy, vz = vel[0, i], vel[1, i], vel[2, i]
-            hx, hy, hz = head[0, i], head[1, i], head[2, i]
-            cx = cell_coordinate(x, origin[0], inv_cell, nx_)
-            cy = cell_coordinate(y, origin[1], inv_cell, ny_)
-            cz = cell_coordinate(z, origin[2], inv_cell, nz_)
+    # One work item per row of cells along x. The boids of a cell share their 27-cell
+    # neighbourhood: it is copied once into contiguous scratch (nine runs, in the order
+    # a boid visits them), then each boid's distances to all of it are one loop that
+    # vectorises. Per boid the candidates, their order and the arithmetic are those of
+    # a search from the boid itself, so results do not depend on this grouping.
+    for r in prange(ny_ * nz_):
+        cy = r % ny_
+        cz = r // ny_
+        cap = 4 * CHUNK
+        cand = np.empty(cap, np.int64)
+        cxs = np.empty(cap, np.float32)
+        cys = np.empty(cap, np.float32)
+        czs = np.empty(cap, np.float32)
+        d2s = np.empty(cap, np.float32)
+        hits = np.empty(cap, np.int64)
+        for cx in range(nx_):
+            s0 = cell_start[cx + nx_ * r]
+            s1 = cell_start[cx + nx_ * r + 1]
+            if s0 == s1:
+                continue
             x0, x1 = max(cx - 1, 0), min(cx + 1, nx_ - 1)
-            sx = sy = sz = zero
-            avx = avy = avz = zero
-            cdx = cdy = cdz = zero
-            ns = na = nc = zero
-            for gz in range(max(cz - 1, 0), min(cz + 1, nz_ - 1) + 1):
-                for gy in range(max(cy - 1, 0), min(cy + 1, ny_ - 1) + 1):
+            z0, z1 = max(cz - 1, 0), min(cz + 1, nz_ - 1)
+            y0, y1 = max(cy - 1, 0), min(cy + 1, ny_ - 1)
+            need = 0
+            for gz in range(z0, z1 + 1):
+                for gy in range(y0, y1 + 1):
                     row = nx_ * (gy + ny_ * gz)
-                    chunk = np.uint64(cell_start[row + x0])
-                    end = np.uint64(cell_start[row + x1 + 1])
-                    while chunk < end:
-                        # Distances of a chunk of candidates (a loop that vectorises),
-                        # the ones in range appended without a branch, then the rules
-                        # over those alone: most candidates of the 27 cells are out of
-                        # range, and testing them one by one cost 2x.
-                        size = min(end - chunk, step_)
-                        for t in range(size):
-                            c = chunk + t
-                            dx = qx_[c] - x
-                            dy = qy_[c] - y
-                            dz = qz_[c] - z
-                            d2s[t] = dx * dx + dy * dy + dz * dz
-                        m = 0
-                        for t in range(size):
-                            hits[m] = chunk + t
-                            m += d2s[t] <= max_r2
-                        chunk += size
-                        for k in range(m):
-                            j = hits[k]
-                            if j == i:
-                                continue
-                            dx = qx_[j] - x
-                            dy = qy_[j] - y
-                            dz = qz_[j] - z
-                            d2 = dx * dx + dy * dy + dz * dz
-                            d = np.sqrt(d2)
-                            ahead = dx * hx + dy * hy + dz * hz
-                            # Masks as 0/1 factors rather than branches: which rules a
-                            # neighbour counts for changes from one to the next, and the
-                            # mispredicted branches cost more than the arithmetic.
-                            ms = np.float32((d2 <= sep_r2) & (ahead >= sep_cos * d) & (d > zero))
-                            ma = np.float32((d2 <= ali_r2) & (ahead >= ali_cos * d))
-                            mc = np.float32((d2 <= coh_r2) & (ahead >= coh_cos * d))
-                            # Reynolds' push away, falling linearly to 0 at the radius:
-                            # (1 - d / r) / d along -d.
-                            s = ms * (one / max(d, tiny) - inv_sep_r)
-                            sx -= dx * s
-                            sy -= dy * s
-                            sz -= dz * s
-                            ns += ms
-                            avx += ma * wx_[j]
-                            avy += ma * wy_[j]
-                            avz += ma * wz_[j]
-                            na += ma
-                            cdx += mc * dx
-                            cdy += mc * dy
-                            cdz += mc * dz
-                            nc += mc
-            neighbors[i] = np.int32(max(ns, max(na, nc)))
-            ax, ay, az = extra[0, i], extra[1, i], extra[2, i]
-            if ns > zero:
-                g = sep_w * max_speed
-                ax += g * sx
-                ay += g * sy
-                az += g * sz
-            if na > zero:
-                # Reynolds' alignment steers to the neighbours' mean direction (at full
-                # speed): matching the mean velocity itself would slow a boid among
-                # neighbours flying every way, and the order would never form.
-                ux, uy, uz = _toward(avx, avy, avz, max_speed)
-                ax += ali_w * (ux - vx)
-                ay += ali_w * (uy - vy)
-                az += ali_w * (uz - vz)
-            if nc > zero:
-                inv = one / nc
-                cdx *= inv
-                cdy *= inv
-                cdz *= inv
-                dist = np.sqrt(cdx * cdx + cdy * cdy + cdz * cdz)
-                ux, uy, uz = _toward(cdx, cdy, cdz, max_speed * min(one, dist / coh_r))
-                ax += coh_w * (ux - vx)
-                ay += coh_w * (uy - vy)
-                az += coh_w * (uz - vz)
-            if table.shape[0] > 0:
-                tx, ty, tz = _targets(
-                    i, x, y, z, vx, vy, vz, hx, hy, hz, ident[i], table, path, wander, p,
-                    max_speed,
-                )  # fmt: skip
-                ax += tx
-                ay += ty
-                az += tz
-            near = False
-            if colliders.shape[0] > 0:
-                tx, ty, tz, near = _avoid(x, y, z, vx, vy, vz, hx, hy, hz, colliders, p, max_speed)
-                ax += tx
-                ay += ty
-                az += tz
-            # Limits: acceleration, then turning rate, then speed.
-            amag = np.sqrt(ax * ax + ay * ay + az * az)
-            if amag > max_accel:
-                s = max_accel / amag
-                ax *= s
-                ay *= s
-                az *= s
-            wx, wy, wz = vx + ax * dt, vy + ay * dt, vz + az * dt
-            speed = np.sqrt(wx * wx + wy * wy + wz * wz)
-            if speed > np.float32(1e-6):
-                ux, uy, uz = wx / speed, wy / speed, wz / speed
-            else:
-                ux, uy, uz = hx, hy, hz
-            c = ux * hx + uy * hy + uz * hz
-            if c < cos_turn:
-                qx, qy, qz = ux - c * hx, uy - c * hy, uz - c * hz
-                q = np.sqrt(qx * qx + qy * qy + qz * qz)
-                if q < np.float32(1e-6):  # straight back: turn to a fixed side
-                    qx, qy, qz = _perpendicular(hx, hy, hz)
+                    need += cell_start[row + x1 + 1] - cell_start[row + x0]
+            if need > cap:
+                cap = need + need // 2
+                cand = np.empty(cap, np.int64)
+                cxs = np.empty(cap, np.float32)
+                cys = np.empty(cap, np.float32)
+                czs = np.empty(cap, np.float32)
+                d2s = np.empty(cap, np.float32)
+                hits = np.empty(cap, np.int64)
+            m = 0
+            for gz in range(z0, z1 + 1):
+                for gy in range(y0, y1 + 1):
+                    row = nx_ * (gy + ny_ * gz)
+                    for j in range(cell_start[row + x0], cell_start[row + x1 + 1]):
+                        cand[m] = j
+                        cxs[m] = qx_[j]
+                        cys[m] = qy_[j]
+                        czs[m] = qz_[j]
+                        m += 1
+            for i in range(s0, s1):
+                x, y, z = qx_[i], qy_[i], qz_[i]
+                vx, vy, vz = wx_[i], wy_[i], wz_[i]
+                hx, hy, hz = head[0, i], head[1, i], head[2, i]
+                sx = sy = sz = zero
+                avx = avy = avz = zero
+                cdx = cdy = cdz = zero
+                ns = na = nc = zero
+                # Distances to the whole neighbourhood (a loop that vectorises), the ones
+                # in range appended without a branch, then the rules over those alone.
+                for t in range(m):
+                    dx = cxs[t] - x
+                    dy = cys[t] - y
+                    dz = czs[t] - z
+                    d2s[t] = dx * dx + dy * dy + dz * dz
+                found = 0
+                for t in range(m):
+                    hits[found] = t
+                    found += d2s[t] <= max_r2
+                for k in range(found):
+                    t = hits[k]
+                    j = cand[t]
+                    if j == i:
+                        continue
+                    dx = cxs[t] - x
+                    dy = cys[t] - y
+                    dz = czs[t] - z
+                    d2 = dx * dx + dy * dy + dz * dz
+                    d = np.sqrt(d2)
+                    ahead = dx * hx + dy * hy + dz * hz
+                    # Masks as 0/1 factors rather than branches: which rules a
+                    # neighbour counts for changes from one to the next, and the
+                    # mispredicted branches cost more than the arithmetic.
+                    ms = np.float32((d2 <= sep_r2) & (ahead >= sep_cos * d) & (d > zero))
+                    ma = np.float32((d2 <= ali_r2) & (ahead >= ali_cos * d))
+                    mc = np.float32((d2 <= coh_r2) & (ahead >= coh_cos * d))
+                    # Reynolds' push away, falling linearly to 0 at the radius:
+                    # (1 - d / r) / d along -d.
+                    s = ms * (one / max(d, tiny) - inv_sep_r)
+                    sx -= dx * s
+                    sy -= dy * s
+                    sz -= dz * s
+                    ns += ms
+                    avx += ma * wx_[j]
+                    avy += ma * wy_[j]
+                    avz += ma * wz_[j]
+                    na += ma
+                    cdx += mc * dx
+                    cdy += mc * dy
+                    cdz += mc * dz
+                    nc += mc
+                neighbors[i] = np.int32(max(ns, max(na, nc)))
+                ax, ay, az = extra[0, i], extra[1, i], extra[2, i]
+                if ns > zero:
+                    g = sep_w * max_speed
+                    ax += g * sx
+                    ay += g * sy
+                    az += g * sz
+                if na > zero:
+                    # Reynolds' alignment steers to the neighbours' mean direction (at full
+                    # speed): matching the mean velocity itself would slow a boid among
+                    # neighbours flying every way, and the order would never form.
+                    ux, uy, uz = _toward(avx, avy, avz, max_speed)
+                    ax += ali_w * (ux - vx)
+                    ay += ali_w * (uy - vy)
+                    az += ali_w * (uz - vz)
+                if nc > zero:
+                    inv = one / nc
+                    cdx *= inv
+                    cdy *= inv
+                    cdz *= inv
+                    dist = np.sqrt(cdx * cdx + cdy * cdy + cdz * cdz)
+                    ux, uy, uz = _toward(cdx, cdy, cdz, max_speed * min(one, dist / coh_r))
+                    ax += coh_w * (ux - vx)
+                    ay += coh_w * (uy - vy)
+                    az += coh_w * (uz - vz)
+                if table.shape[0] > 0:
+                    tx, ty, tz = _targets(
+                        i, x, y, z, vx, vy, vz, hx, hy, hz, ident[i], table, path, wander, p,
+                        max_speed,
+                    )  # fmt: skip
+                    ax += tx
+                    ay += ty
+                    az += tz
+                near = False
+                if colliders.shape[0] > 0:
+                    tx, ty, tz, near = _avoid(
+                        x, y, z, vx, vy, vz, hx, hy, hz, colliders, p, max_speed
+                    )
+                    ax += tx
+                    ay += ty
+                    az += tz
+                # Limits: acceleration, then turning rate, then speed.
+                amag = np.sqrt(ax * ax + ay * ay + az * az)
+                if amag > max_accel:
+                    s = max_accel / amag
+                    ax *= s
+                    ay *= s
+                    az *= s
+                wx, wy, wz = vx + ax * dt, vy + ay * dt, vz + az * dt
+                speed = np.sqrt(wx * wx + wy * wy + wz * wz)
+                if speed > np.float32(1e-6):
+                    ux, uy, uz = wx / speed, wy / speed, wz / speed
                 else:
-                    qx, qy, qz = qx / q, qy / q, qz / q
-                ux = cos_turn * hx + sin_turn * qx
-                uy = cos_turn * hy + sin_turn * qy
-                uz = cos_turn * hz + sin_turn * qz
-                u = np.sqrt(ux * ux + uy * uy + uz * uz)
-                ux, uy, uz = ux / u, uy / u, uz / u
-            speed = min(max(speed, min_speed), max_speed)
-            wx, wy, wz = ux * speed, uy * speed, uz * speed
-            nx, ny, nz = x + wx * dt, y + wy * dt, z + wz * dt
-            if near:
-                nx, ny, nz, wx, wy, wz = _keep_out(nx, ny, nz, wx, wy, wz, colliders, radius)
-                s2 = wx * wx + wy * wy + wz * wz
-                if s2 > np.float32(1e-12):
-                    s = one / np.sqrt(s2)
-                    ux, uy, uz = wx * s, wy * s, wz * s
-            pos_out[0, i], pos_out[1, i], pos_out[2, i] = nx, ny, nz
-            vel_out[0, i], vel_out[1, i], vel_out[2, i] = wx, wy, wz
-            head_out[0, i], head_out[1, i], head_out[2, i] = ux, uy, uz
-            # Bank into the turn: tan(bank) = lateral acceleration / g, the lateral
-            # acceleration being speed × yaw rate, the yaw rate positive turning right
-            # (clockwise seen from above: the right being heading × y).
-            yaw = (hx * uz - hz * ux) / dt
-            target = np.arctan(speed * yaw / gravity)
-            bank[i] += (target - bank[i]) * bank_rate
-            phase = flap[i] + flap_step * speed
-            flap[i] = phase - np.float32(2.0 * np.pi) * np.floor(phase / np.float32(2.0 * np.pi))
+                    ux, uy, uz = hx, hy, hz
+                c = ux * hx + uy * hy + uz * hz
+                if c < cos_turn:
+                    qx, qy, qz = ux - c * hx, uy - c * hy, uz - c * hz
+                    q = np.sqrt(qx * qx + qy * qy + qz * qz)
+                    if q < np.float32(1e-6):  # straight back: turn to a fixed side
+                        qx, qy, qz = _perpendicular(hx, hy, hz)
+                    else:
+                        qx, qy, qz = qx / q, qy / q, qz / q
+                    ux = cos_turn * hx + sin_turn * qx
+                    uy = cos_turn * hy + sin_turn * qy
+                    uz = cos_turn * hz + sin_turn * qz
+                    u = np.sqrt(ux * ux + uy * uy + uz * uz)
+                    ux, uy, uz = ux / u, uy / u, uz / u
+                speed = min(max(speed, min_speed), max_speed)
+                wx, wy, wz = ux * speed, uy * speed, uz * speed
+                nx, ny, nz = x + wx * dt, y + wy * dt, z + wz * dt
+                if near:
+                    nx, ny, nz, wx, wy, wz = _keep_out(nx, ny, nz, wx, wy, wz, colliders, radius)
+                    s2 = wx * wx + wy * wy + wz * wz
+                    if s2 > np.float32(1e-12):
+                        s = one / np.sqrt(s2)
+                        ux, uy, uz = wx * s, wy * s, wz * s
+                pos_out[0, i], pos_out[1, i], pos_out[2, i] = nx, ny, nz
+                vel_out[0, i], vel_out[1, i], vel_out[2, i] = wx, wy, wz
+                head_out[0, i], head_out[1, i], head_out[2, i] = ux, uy, uz
+                # Bank into the turn: tan(bank) = lateral acceleration / g, the lateral
+                # acceleration being speed × yaw rate, the yaw rate positive turning right
+                # (clockwise seen from above: the right being heading × y).
+                yaw = (hx * uz - hz * ux) / dt
+                target = np.arctan(speed * yaw / gravity)
+                bank[i] += (target - bank[i]) * bank_rate
+                phase = flap[i] + flap_step * speed
+                flap[i] = phase - np.float32(2.0 * np.pi) * np.floor(
+                    phase / np.float32(2.0 * np.pi)
+                )
 
 
 @parallel_kernel
