@@ -31,8 +31,8 @@ from ..spatial._kernels import cell_coordinate
     PARAMS,
 ) = range(25)  # fmt: skip
 
-#: Initial capacity of the step's neighbourhood scratch is four times this (it grows as needed).
-CHUNK = 128
+#: Initial capacity of the step's neighbourhood scratch, per work item (it grows as needed).
+SCRATCH = 512
 
 _SEEK, _FLEE, _ARRIVE, _WANDER, _CONTAIN, _PATH = range(6)
 _AVOID, _EVADE, _PURSUE, _FOLLOW = range(4)
@@ -302,7 +302,7 @@ def step(
     for r in prange(ny_ * nz_):
         cy = r % ny_
         cz = r // ny_
-        cap = 4 * CHUNK
+        cap = SCRATCH
         cand = np.empty(cap, np.int64)
         cxs = np.empty(cap, np.float32)
         cys = np.empty(cap, np.float32)
