@@ -8,7 +8,7 @@ Run from the repository root::
 The flock (:func:`benchmark_flock`) is ``n`` boids spread uniformly in a cube at 0.25
 boids/m³ (the cube's side grows with ``n``), flying at 8 m/s in random directions, with
 the default rules of :class:`motes.flock.Flock` (separation 0.5 m, alignment 1.5 m,
-cohesion 2 m, fields of view 300°/270°/270°: about six boids seen per boid) and obstacle
+cohesion 2 m, fields of view 300°/270°/270°: about seven boids seen per boid) and obstacle
 avoidance against a ground plane and a ball in the middle of the cube. Figures, all
 measured in the same run:
 
