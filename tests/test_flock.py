@@ -325,16 +325,15 @@ def test_an_empty_flock_steps():
 
 
 def test_birds_point_along_their_heading_and_bank_into_turns():
-    from motes.flock.bird import TRIANGLES, VERTICES, bird_vertices, faces
+    from motes.flock.meshes import BIRD, FISH, faces, vertices
 
     pos = np.zeros((3, 2), np.float32)
     head = np.array([[1, 0], [0, 0], [0, 1]], np.float32)  # +x, then +z
     bank = np.array([0.0, 0.5], np.float32)  # the second rolls its right wing down
     flap = np.full(2, np.pi / 2 + 0.6, np.float32)  # the tip at the top of its beat
-    out = np.empty((2 * VERTICES, 3), np.float32)
-    normals = np.empty_like(out)
-    bird_vertices(pos, head, bank, flap, 1.0, 0.0, out, normals)  # amplitude 0: a glide
-    first, second = out[:VERTICES], out[VERTICES:]
+    out, normals = vertices(pos, head, bank, flap, 1.0, 0.0)  # amplitude 0: a glide
+    v = len(BIRD.rest)
+    first, second = out[:v], out[v:]
     np.testing.assert_allclose(first[0], (0.17, 0, 0), atol=1e-6)  # nose ahead
     # Heading +x: the right (heading × y) is +z; wing tips at ±half the span.
     np.testing.assert_allclose(first[14], (-0.16, 0, 0.5), atol=1e-6)
@@ -343,10 +342,15 @@ def test_birds_point_along_their_heading_and_bank_into_turns():
     np.testing.assert_allclose(second[0], (0, 0, 0.17), atol=1e-6)
     np.testing.assert_allclose(second[14][:2], (-0.5 * np.cos(0.5), -0.5 * np.sin(0.5)), atol=1e-6)
     assert second[9][1] > 0  # the left tip up
-    np.testing.assert_allclose(normals[VERTICES], (-np.sin(0.5), np.cos(0.5), 0), atol=1e-6)
-    assert faces(2).shape == (2 * TRIANGLES, 3) and faces(2).max() == 2 * VERTICES - 1
-    bird_vertices(pos, head, bank, flap, 1.0, 1.0, out, normals)
+    np.testing.assert_allclose(normals[v], (-np.sin(0.5), np.cos(0.5), 0), atol=1e-6)
+    assert faces(2).shape == (2 * len(BIRD.faces), 3) and faces(2).max() == 2 * v - 1
+    out, _ = vertices(pos, head, bank, flap, 1.0, 1.0)
     assert out[9, 1] > 0.3  # beating: the tip raised by 0.35 of the span at this phase
+    # A fish's tail beats sideways: its fin swings 0.12 of the length (0.8 rad behind
+    # the phase) to the right of the body's axis; the snout stays on the axis ahead.
+    out, _ = vertices(pos, head, bank, flap, 2.0, 1.0, FISH)
+    np.testing.assert_allclose(out[0], (1.0, 0, 0), atol=1e-6)
+    np.testing.assert_allclose(out[6], (-1.0, 0.28, 0.24 * np.cos(0.2)), atol=1e-6)
 
 
 def test_a_right_turn_banks_the_right_wing_down():

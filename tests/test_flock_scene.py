@@ -97,7 +97,7 @@ def test_a_flock_name_that_is_no_flock_is_an_error_naming_the_key():
         ("weight = 6.0 }", "weight = 6.0, fov = 400 }", r"body\[0\]\.separation\.fov.*<= 360"),
         ("count = 1500", "count = -1", r"body\[0\]\.count"),
         ("min_speed = 1.0", "min_speed = 9.0", r"min_speed must be <= max_speed"),
-        ('draw = "birds"', 'draw = "fish"', r"body\[0\]\.draw.*'birds'"),
+        ('draw = "birds"', 'draw = "whales"', r"body\[0\]\.draw.*'fish'"),
         ("  [[body.seek]]\n  target", "  [[body.seek]]\n  goal", r"body\[0\]\.seek\[0\]"),
     ],
 )

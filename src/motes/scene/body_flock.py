@@ -10,8 +10,8 @@ Behaviours toward another flock (``[[body.pursue]]``, ``[[body.evade]]``,
 every body is built (:meth:`FlockBody.link`). The scene's colliders are avoided unless
 ``colliders = false``.
 
-Drawn as birds (a mesh of every boid, :mod:`motes.flock.bird`), lit flat, optionally
-fading with distance into a haze colour, or as round sprites.
+Drawn as birds or fish (a mesh of every boid, :mod:`motes.flock.meshes`), lit flat,
+optionally fading with distance into a haze colour, or as round sprites.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import flock as fl
-from ..flock.bird import VERTICES, bird_vertices, faces
+from ..flock.meshes import BIRD, FISH, faces, vertices
 from ..render import geometry
 from ..render.shading import Material
 from ..render.sprites import SpriteStyle
@@ -56,16 +56,17 @@ _INTERACTIONS = {
 class FlockBody(Body):
     """A :class:`~motes.flock.Flock` in a scene."""
 
-    def __init__(self, flock: fl.Flock, *, draw, color, wingspan, flap, haze, camera, pending):
+    def __init__(self, flock: fl.Flock, *, draw, color, size, flap, specular, haze, camera,
+                 pending):  # fmt: skip
         self.flock = flock
         self.draw = draw
         self.color = np.asarray(color[:3], np.float32)
-        self.wingspan = wingspan
+        self.size = size
         self.flap = flap
         self.haze = haze  # None or (colour (3,), distance [m])
         self.camera_position = np.asarray(camera.position, np.float64)
         self.pending = pending  # [(path, cls, flock name, options)] until link()
-        self.material = Material(specular=0.0)
+        self.material = Material(specular=specular, shininess=24.0)
         self._faces = np.zeros((0, 3), np.int32)
         self.sprite_style = SpriteStyle(blend="alpha")
 
@@ -100,24 +101,19 @@ class FlockBody(Body):
         return np.repeat(rgb, per, axis=0)
 
     def drawables(self) -> list:
-        if self.draw != "birds" or self.flock.n == 0:
+        if self.draw == "sprites" or self.flock.n == 0:
             return []
         from ..geometry.mesh import TriangleMesh
 
         f = self.flock
-        n = f.n
-        vertices = np.empty((n * VERTICES, 3), np.float32)
-        normals = np.empty_like(vertices)
-        bird_vertices(f.position, f.heading, f.bank, f.flap, self.wingspan, self.flap, vertices,
-                      normals)  # fmt: skip
-        if self._faces.shape[0] != n * (len(faces(1))):
-            self._faces = faces(n)
-        mesh = TriangleMesh(vertices, self._faces, normals)
-        return [
-            geometry.Mesh(
-                mesh, vertex_colors=self._colors(VERTICES), smooth=False, material=self.material
-            )
-        ]
+        shape = BIRD if self.draw == "birds" else FISH
+        points, normals = vertices(f.position, f.heading, f.bank, f.flap, self.size, self.flap,
+                                   shape)  # fmt: skip
+        if self._faces.shape[0] != f.n * len(shape.faces):
+            self._faces = faces(f.n, shape)
+        mesh = TriangleMesh(points, self._faces, normals)
+        colors = self._colors(len(shape.rest))
+        return [geometry.Mesh(mesh, vertex_colors=colors, smooth=False, material=self.material)]
 
     def particles(self) -> list:
         if self.draw != "sprites":
@@ -265,10 +261,11 @@ def build_flock(table: Table, context: BuildContext) -> FlockBody:
         haze = (np.asarray(haze_color[:3], np.float32), haze_distance)
     return FlockBody(
         flock,
-        draw=table.get("draw", one_of("birds", "sprites"), "birds"),
+        draw=table.get("draw", one_of("birds", "fish", "sprites"), "birds"),
         color=table.get("color", color, (0.02, 0.02, 0.025, 1.0)),
-        wingspan=table.get("wingspan", positive(), 4 * flock.radius),
+        size=table.get("size", positive(), 4 * flock.radius),
         flap=table.get("flap", number(0.0, 2.0), 1.0),
+        specular=table.get("specular", number(0.0), 0.0),
         haze=haze,
         camera=context.camera,
         pending=_pending(table),
