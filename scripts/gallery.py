@@ -27,6 +27,7 @@ STILL_AT = {
     "hair": 0.35,
     "ragdoll_stairs": 0.2,
     "starlings": 0.9,
+    "fish_school": 0.5,
 }
 
 
