@@ -14,9 +14,10 @@ from . import kernels
 from .behaviors import TARGETS, AvoidColliders, Interaction, Wander, pack_targets
 from .rules import Limits, Rule
 
-#: Bytes per boid of a flock's arrays (three state rows and their next-step copies,
-#: the interaction acceleration and wander rows, ids, bank, flap, neighbour counts and
-#: the grid's keys, order and sorted copy), rounded up.
+#: Bytes per boid of a flock's arrays: nine float32 (3, n) arrays (position, velocity,
+#: heading, their next-step copies, the grid's sorted copy, the acceleration from other
+#: flocks, the wander directions, a spare for reordering), ids and the grid's keys and
+#: order (int64), bank, flap and neighbour count, and room for temporaries.
 BYTES_PER_BOID = 4 * 3 * 9 + 8 * 3 + 4 * 3 + 32
 
 #: Default rules (radius [m], weight [1/s], field of view [degrees]) and limits.

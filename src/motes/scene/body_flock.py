@@ -42,7 +42,7 @@ from .schema import (
 )
 
 #: Most boids in one flock body (the scene fuzzer's bound on counts).
-MAX_BOIDS = 10_000_000
+MAX_BOIDS = 2_000_000
 
 #: Keys of each interaction table -> its class.
 _INTERACTIONS = {
