@@ -106,3 +106,32 @@ def test_bad_keys_name_their_path_and_range(old, new, where):
     assert old in text
     with pytest.raises(SceneError, match=where):
         load_scene(text.replace(old, new, 1))
+
+
+@pytest.mark.parametrize(("direction", "angle"), [("[1, 0, 0]", 0.0), ("[0, 1, 0]", np.pi / 2)])
+def test_sprites_turn_to_the_heading_the_camera_sees(direction, angle):
+    s = load_scene(f"""
+[camera]
+position = [0, 0, 10]
+target = [0, 0, 0]
+resolution = [200, 120]
+[[body]]
+name = "b"
+type = "flock"
+count = 3
+extent = [6, 0, 0]
+speed = 1.0
+direction = {direction}
+draw = "sprites"
+size = 2.0
+separation = {{ weight = 0.0 }}
+alignment = {{ weight = 0.0 }}
+cohesion = {{ weight = 0.0 }}
+""")
+    s.advance()
+    ((state, style),) = s.bodies["b"].particles()
+    assert style.texture is not None and style.texture.shape == (32, 32, 4)
+    # Counter-clockwise on screen from +x; no rule turns them, and a camera looking along
+    # -z with +y up keeps x and y directions on screen (float32 rounding only).
+    np.testing.assert_allclose(state["rotation"], angle, atol=1e-5)
+    assert s.render().std() > 1

@@ -64,11 +64,12 @@ class FlockBody(Body):
         self.size = size
         self.flap = flap
         self.haze = haze  # None or (colour (3,), distance [m])
+        self.camera = camera
         self.camera_position = np.asarray(camera.position, np.float64)
         self.pending = pending  # [(path, cls, flock name, options)] until link()
         self.material = Material(specular=specular, shininess=24.0)
         self._faces = np.zeros((0, 3), np.int32)
-        self.sprite_style = SpriteStyle(blend="alpha")
+        self.sprite_style = SpriteStyle(blend="alpha", texture=silhouette())
 
     def link(self, bodies: dict) -> None:
         for path, cls, name, options in self.pending:
@@ -121,13 +122,42 @@ class FlockBody(Body):
         state = self.flock.particle_state()
         rgba = np.ones((4, state.count), np.float32)
         rgba[:3] = self._colors(1).T
-        return [(state.replace(color=Field(rgba, "1", "linear RGBA")), self.sprite_style)]
+        # Each sprite turned to its boid's heading as the scene's camera sees it: the
+        # screen direction from the boid to a point ahead, counter-clockwise from +x
+        # (screen y grows downward).
+        tip = state.positions + state["heading"] * np.float32(self.size)
+        here, _ = self.camera.project(state.positions.T)
+        ahead, _ = self.camera.project(tip.T)
+        delta = np.nan_to_num(ahead - here)
+        angle = np.arctan2(-delta[:, 1], delta[:, 0]).astype(np.float32)
+        fields = {"color": Field(rgba, "1", "linear RGBA"), "rotation": Field(angle, "rad")}
+        radius = np.full(state.count, 0.5 * self.size, np.float32)
+        return [(state.replace(radius=radius, **fields), self.sprite_style)]
 
     def particle_state(self):
         return self.flock.particle_state()
 
     def count(self) -> int:
         return self.flock.n
+
+
+def silhouette(size: int = 32) -> np.ndarray:
+    """A bird seen from above as a sprite texture, (size, size, 4) linear RGBA, facing +x
+    (white, so the sprite's colour tints it): a slim body and swept-back pointed wings."""
+    t = (np.arange(size) + 0.5) / size * 2 - 1  # texel centres in [-1, 1]
+    x, y = np.meshgrid(t, -t)  # y up: row 0 is the top
+    body = (x / 0.55) ** 2 + (y / 0.12) ** 2 <= 1
+    # A wing: a triangle from the shoulder (x in [-0.15, 0.2] at y = 0) back to the tip
+    # (x = -0.35 at |y| = 0.95).
+    span = np.abs(y) / 0.95
+    front = 0.2 - 0.55 * span
+    back = -0.15 - 0.2 * span
+    wings = (span <= 1) & (x <= front) & (x >= back)
+    tail = (x < -0.4) & (x > -0.8) & (np.abs(y) < 0.08 + 0.25 * (-0.4 - x))
+    alpha = (body | wings | tail).astype(np.float32)
+    rgba = np.ones((size, size, 4), np.float32)
+    rgba[..., 3] = alpha
+    return rgba
 
 
 def _rule(table: Table, key: str, default: fl.Rule) -> fl.Rule:
