@@ -41,7 +41,7 @@ from .schema import (
     vector,
 )
 
-#: Most boids in one flock body (the scene fuzzer's bound on counts).
+#: Most boids in one flock body (about 350 MB of arrays, see ``flock.BYTES_PER_BOID``).
 MAX_BOIDS = 2_000_000
 
 #: Keys of each interaction table -> its class.
