@@ -135,3 +135,23 @@ cohesion = {{ weight = 0.0 }}
     # -z with +y up keeps x and y directions on screen (float32 rounding only).
     np.testing.assert_allclose(state["rotation"], angle, atol=1e-5)
     assert s.render().std() > 1
+
+
+def test_a_trail_draws_each_boids_last_positions():
+    text = SCENE.format(draw="birds", prey_of="shark").replace(
+        "radius = 0.3\nmax_speed = 6.0",
+        "radius = 0.3\nmax_speed = 6.0\ntrail = 20\ntrail_width = 2.0",
+    )
+    s = load_scene(text)
+    shark = s.bodies["shark"]
+    assert shark.drawables()[1:] == []  # nothing recorded yet
+    for _ in range(30):
+        s.advance()
+    _, lines = shark.drawables()
+    assert lines.segments.shape == (19, 2)  # the last 20 positions of the one shark
+    np.testing.assert_allclose(lines.points[-1], shark.flock.position[:, 0], rtol=0, atol=1e-6)
+    steps = np.linalg.norm(np.diff(lines.points, axis=0), axis=1)
+    assert np.all(steps <= 6.0 / 30 + 1e-6)  # one step of at most max_speed · dt apart
+    with pytest.raises(SceneError, match=r"body\[0\]\.trail: trail × count must be at most"):
+        load_scene(SCENE.format(draw="birds", prey_of="shark").replace(
+            "count = 1500", "count = 1500\ntrail = 2000"))  # fmt: skip

@@ -44,6 +44,9 @@ from .schema import (
 #: Most boids in one flock body (about 350 MB of arrays, see ``flock.BYTES_PER_BOID``).
 MAX_BOIDS = 2_000_000
 
+#: Most points of a flock body's trails (boids × trail length).
+MAX_TRAIL_POINTS = 2_000_000
+
 #: Keys of each interaction table -> its class.
 _INTERACTIONS = {
     "pursue": fl.Pursue,
@@ -57,7 +60,7 @@ class FlockBody(Body):
     """A :class:`~motes.flock.Flock` in a scene."""
 
     def __init__(self, flock: fl.Flock, *, draw, color, size, flap, specular, haze, camera,
-                 pending):  # fmt: skip
+                 pending, trail=(0, 1.0, None)):  # fmt: skip
         self.flock = flock
         self.draw = draw
         self.color = np.asarray(color[:3], np.float32)
@@ -70,6 +73,11 @@ class FlockBody(Body):
         self.material = Material(specular=specular, shininess=24.0)
         self._faces = np.zeros((0, 3), np.int32)
         self.sprite_style = SpriteStyle(blend="alpha", texture=silhouette())
+        # Trails: the last ``length`` positions of every boid, by id, in a ring.
+        length, self.trail_width, trail_color = trail
+        self.trail_color = self.color if trail_color is None else np.asarray(trail_color[:3])
+        self._history = np.zeros((length, flock.n, 3))
+        self._recorded = 0
 
     def link(self, bodies: dict) -> None:
         for path, cls, name, options in self.pending:
@@ -89,6 +97,23 @@ class FlockBody(Body):
         self.flock.step(dt)
         if not np.isfinite(self.flock.position).all():
             raise FloatingPointError("boid positions are no longer finite")
+        if len(self._history):
+            self._history[self._recorded % len(self._history), self.flock.ids] = (
+                self.flock.position.T
+            )
+            self._recorded += 1
+
+    def _trails(self) -> list:
+        """Each boid's path over its last steps as a polyline (``geometry.Lines``)."""
+        length = min(self._recorded, len(self._history))
+        n = self.flock.n
+        if length < 2 or n == 0:
+            return []
+        ring = (self._recorded - length + np.arange(length)) % len(self._history)
+        points = self._history[ring].transpose(1, 0, 2).reshape(-1, 3)  # boid-major
+        first = (np.arange(n)[:, None] * length + np.arange(length - 1)).ravel()
+        segments = np.stack([first, first + 1], axis=1)
+        return [geometry.Lines(points, segments, color=self.trail_color, width=self.trail_width)]
 
     def _colors(self, per: int) -> np.ndarray:
         """(n · per, 3) linear RGB: the flock's colour, hazed with distance."""
@@ -103,7 +128,7 @@ class FlockBody(Body):
 
     def drawables(self) -> list:
         if self.draw == "sprites" or self.flock.n == 0:
-            return []
+            return self._trails()
         from ..geometry.mesh import TriangleMesh
 
         f = self.flock
@@ -114,7 +139,8 @@ class FlockBody(Body):
             self._faces = faces(f.n, shape)
         mesh = TriangleMesh(points, self._faces, normals)
         colors = self._colors(len(shape.rest))
-        return [geometry.Mesh(mesh, vertex_colors=colors, smooth=False, material=self.material)]
+        mesh = geometry.Mesh(mesh, vertex_colors=colors, smooth=False, material=self.material)
+        return [mesh, *self._trails()]
 
     def particles(self) -> list:
         if self.draw != "sprites":
@@ -299,4 +325,17 @@ def build_flock(table: Table, context: BuildContext) -> FlockBody:
         haze=haze,
         camera=context.camera,
         pending=_pending(table),
+        trail=_trail(table, count),
     )
+
+
+def _trail(table: Table, count: int) -> tuple:
+    length = table.get("trail", integer(0, 10_000), 0)
+    width = table.get("trail_width", positive(), 1.0)
+    trail_color = table.get("trail_color", color, None)
+    if length * count > MAX_TRAIL_POINTS:
+        raise SceneError(
+            table.key_path("trail"),
+            f"trail × count must be at most {MAX_TRAIL_POINTS:,} points, got {length} × {count:,}",
+        )
+    return length, width, trail_color
