@@ -26,6 +26,8 @@ STILL_AT = {
     "curtain": 0.85,
     "hair": 0.35,
     "ragdoll_stairs": 0.2,
+    "starlings": 0.9,
+    "fish_school": 0.5,
 }
 
 

@@ -1,8 +1,9 @@
-"""Small instances of the five kinds of particle simulation, for the state and cache tests."""
+"""Small instances of the six kinds of particle simulation, for the state and cache tests."""
 
 from __future__ import annotations
 
 import motes as mo
+from motes.flock import Flock
 from motes.fluids import Fluid, FluidModel, Tank, lattice
 
 DT = 1 / 60
@@ -39,6 +40,10 @@ def make_world():
     return world
 
 
+def make_flock():
+    return Flock.in_box(300, (-0.5, 0.5, -0.5), (0.5, 1.5, 0.5), speed=1.0, seed=2)
+
+
 #: kind -> (builder, its fields with their units, its radius [m] when constant)
 KINDS = {
     "system": (make_system, {"age": "s", "lifetime": "s", "color": "1"}, None),
@@ -46,4 +51,5 @@ KINDS = {
     "cloth": (make_cloth, {"mass": "kg", "pinned": ""}, 0.005),
     "hair": (make_hair, {"mass": "kg", "strand": ""}, 0.004),
     "world": (make_world, {"mass": "kg", "previous": "m"}, None),
+    "flock": (make_flock, {"heading": "1", "bank": "rad", "flap": "rad", "neighbors": ""}, 0.1),
 }

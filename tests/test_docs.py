@@ -64,6 +64,14 @@ def test_rigid_guide_examples_run(capsys):
     assert "0.64\n[0. 2.]" in out  # restitution: e² of the drop; a ball passes its velocity on
 
 
+def test_flocks_guide_examples_run(capsys):
+    namespace = run_blocks(DOCS / "flocks.md")
+    assert namespace["flock"].n == 5_000
+    assert not namespace["inside"].any()  # no fish inside the rock
+    out = capsys.readouterr().out
+    assert "True" in out and out.rstrip().endswith("False")
+
+
 def test_the_index_links_every_page_and_every_link_resolves():
     index = (DOCS / "index.md").read_text()
     links = {link for link in re.findall(r"\]\(([^)#]+)", index) if "://" not in link}

@@ -49,6 +49,12 @@ class Body(ABC):
         """Particles in the body (for progress lines and ``Scene.counts``)."""
         return 0
 
+    def link(self, bodies: dict) -> None:
+        """Resolve references to other bodies by name (``bodies``: every body of the
+        scene, this one included), once all are built; raise :class:`SceneError` naming
+        the key of a bad reference. Most bodies refer to none."""
+        return None
+
     def contact(self, path: str, name: str, options: dict):
         """A contact an emitter system's particles have with this body (a
         :class:`~motes.collide.between.KindContact`), from a ``[[system.contact]]`` table
@@ -81,6 +87,7 @@ BODY_TYPES: dict[str, Builder] = {}
 # bodies does not import (or compile) the solvers.
 _BODY_MODULES: tuple[str, ...] = (
     "motes.scene.body_cloth",
+    "motes.scene.body_flock",
     "motes.scene.body_fluids",
     "motes.scene.body_rigid",
     "motes.scene.body_rigid_world",

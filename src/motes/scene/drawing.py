@@ -141,7 +141,12 @@ def _drawable(obj: SceneObject):
     if obj.kind == "mesh":
         return geometry.Mesh(p["mesh"], color=color)
     if obj.kind == "sphere":
-        return geometry.Sphere(p.get("center", (0.0, 0.0, 0.0)), p.get("radius", 1.0), color=color)
+        return geometry.Sphere(
+            p.get("center", (0.0, 0.0, 0.0)),
+            p.get("radius", 1.0),
+            color=color,
+            subdivisions=p.get("subdivisions", 3),
+        )
     if obj.kind == "capsule":
         return geometry.Capsule(
             p.get("a", (0.0, 0.0, 0.0)),

@@ -414,7 +414,7 @@ _OBJECT_KEYS = {
         "checker": color,
         "checker_size": positive(),
     },
-    "sphere": {"center": vector(), "radius": positive()},
+    "sphere": {"center": vector(), "radius": positive(), "subdivisions": integer(0, 6)},
     "capsule": {"a": vector(), "b": vector(), "radius": positive()},
     "box": {"center": vector(), "size": lambda v, p: tuple(_sizes(v, p)), "rotation": vector()},
 }
@@ -553,6 +553,8 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         if body_name in systems or body_name in bodies:
             raise SceneError(t.key_path("name"), f"duplicate name {shown(body_name)}")
         bodies[body_name] = body
+    for body in bodies.values():
+        body.link(bodies)
 
     for system_name, system, c in pending_contacts:
         system.add(_contact(c, bodies, system_name))
