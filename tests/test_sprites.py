@@ -82,7 +82,18 @@ MODES = {
 }
 
 
-@pytest.mark.parametrize("options", MODES.values(), ids=MODES.keys())
+#: Each mode compiles kernels of its own: the default tier keeps one per feature (point,
+#: smooth, disc, additive, alpha, streak, soft); the others run in the slow tier.
+SLOW_MODES = {"point alpha", "disc alpha", "point streak", "disc streak alpha", "soft additive"}
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        pytest.param(o, id=k, marks=[pytest.mark.slow] if k in SLOW_MODES else [])
+        for k, o in MODES.items()
+    ],
+)
 def test_kernels_match_the_naive_twin(rng, options):
     got, expected = draw_both(options, rng)
     assert np.abs(expected - 0.1).max() > 0.1  # something was drawn

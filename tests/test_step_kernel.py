@@ -92,10 +92,15 @@ def random_state(rng, n=2000):
 
 # Every scheme with the two richest collider sets, every collider set with one scheme:
 # each combination compiles its own kernel (seconds), so the full product is not run.
-CASES = sorted(
-    {(s, c) for s in SCHEMES for c in ("ground", "responses")}
-    | {("semi", c) for c in COLLIDER_SETS}
-)
+# The default tier keeps every scheme with the richest set and every set with one scheme;
+# the other schemes' ground cases run in the slow tier.
+CASES = [
+    pytest.param(s, c, marks=pytest.mark.slow) if c == "ground" and s != "semi" else (s, c)
+    for s, c in sorted(
+        {(s, c) for s in SCHEMES for c in ("ground", "responses")}
+        | {("semi", c) for c in COLLIDER_SETS}
+    )
+]
 
 
 @pytest.mark.parametrize(("scheme", "collider_set"), CASES)

@@ -7,7 +7,7 @@ import numpy as np
 from .. import _memory
 from .. import _validate as check
 from .._jit import threads_for
-from ..spatial._kernels import compact_rows
+from ..spatial.kernels import compact_rows
 from ..spatial.grid import Neighbors, UniformGrid
 from ..state import Field, ParticleState
 from . import kernels

@@ -21,7 +21,7 @@ from numba import prange
 
 from .._jit import block_bounds, block_count, called, device, parallel_kernel
 from ..geometry.distance import row_signed_distance
-from ..spatial._kernels import cell_coordinate
+from ..spatial.kernels import cell_coordinate
 
 # Indices into the float64 parameter vector of :func:`step`.
 (
