@@ -240,6 +240,9 @@ def emitter(table: Table, camera, base: Path, *, template: bool = False) -> emit
     }
     for key in ("color", "size", "mass", "rotation"):
         kwargs[key] = table.get(key, distribution, None)
+    charge = table.get("charge", distribution, None)
+    if charge is not None:
+        kwargs["attributes"] = {"charge": charge}
     the_shape = table.get("shape", lambda v, p: shape(v, p, base), None)
     the_rate = None if template else table.get("rate", lambda v, p: rate(v, p, camera))
     table.finish()
@@ -287,6 +290,25 @@ _FORCES = {
         radius=t.get("radius", positive(), 1.0),
         pull=t.get("pull", number(), 0.0),
     ),
+    "nbody_gravity": lambda t: build(
+        t.path,
+        forces.NBodyGravity,
+        t.get("G", positive(), forces.nbody.G_SI),
+        **_summation(t),
+    ),
+    "coulomb": lambda t: build(
+        t.path,
+        forces.Coulomb,
+        k=t.get("k", positive(), forces.nbody.K_COULOMB),
+        **_summation(t),
+    ),
+    "lennard_jones": lambda t: build(
+        t.path,
+        _lennard_jones,
+        t.get("epsilon", positive()),
+        t.get("sigma", positive()),
+        t.get("cutoff", positive(), None),
+    ),
     "curl_noise": lambda t: build(
         t.path,
         forces.CurlNoise,
@@ -297,6 +319,20 @@ _FORCES = {
         time_scale=t.get("time_scale", number(), 0.0),
     ),
 }
+
+
+def _summation(t: Table) -> dict:
+    """The keys shared by the inverse-square pair forces."""
+    return {
+        "softening": t.get("softening", number(0.0), 0.0),
+        "method": t.get("method", one_of(*forces.nbody.METHODS), "auto"),
+        "theta": t.get("theta", number(0.0, 1.0, low_open=True), 0.7),
+        "quadrupole": t.get("quadrupole", boolean, False),
+    }
+
+
+def _lennard_jones(epsilon, sigma, cutoff):
+    return forces.PairForce(forces.lennard_jones(epsilon, sigma), cutoff=cutoff)
 
 
 def force(table: Table):
