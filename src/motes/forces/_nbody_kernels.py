@@ -21,9 +21,9 @@ accepted as one pseudo-particle when the distance from its centre of mass to the
 bounding box exceeds ``size / θ + δ``, ``δ`` the offset of the centre of mass from the
 cell's centre (the ``b_max`` criterion of Salmon & Warren 1994, J. Comput. Phys. 111,
 136), and the node does not hold the group itself; else its children are visited, and
-an opened leaf's points are summed directly. Accepted nodes add their monopole and, optionally, their
-traceless quadrupole ``Q = Σ w (3 s sᵀ - |s|² I)`` about the centre of mass, with the
-softened distance in place of ``r``:
+an opened leaf's points are summed directly. Accepted nodes add their monopole and,
+optionally, their traceless quadrupole ``Q = Σ w (3 s sᵀ - |s|² I)`` about the centre
+of mass, with the softened distance in place of ``r``:
 
 .. math:: a = M d / r^3 - Q d / r^5 + \tfrac{5}{2} (dᵀ Q d) \, d / r^7
 

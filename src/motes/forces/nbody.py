@@ -302,8 +302,7 @@ class Coulomb(_InverseSquare):
         n = position.shape[1]
         if not store.has(self.charge):
             raise KeyError(
-                f"Coulomb reads charges from attribute {self.charge!r}, which these "
-                "particles lack"
+                f"Coulomb reads charges from attribute {self.charge!r}, which these particles lack"
             )
         charge = np.asarray(store.raw(self.charge)[:n], dtype=position.dtype)
         inverse_square(position, charge, out, coupling=-self.k, scale=charge, **self._options())
