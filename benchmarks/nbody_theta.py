@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .nbody import SAMPLE, barnes_hut, errors, reference_at, sphere
 from ._common import benchmark_main, machine, time_calls
+from .nbody import SAMPLE, barnes_hut, errors, reference_at, sphere
 
 THETAS = (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
 
@@ -32,8 +32,9 @@ def measure(quick: bool) -> dict:
     for theta in THETAS:
         row = {"theta": theta}
         for quadrupole in (False, True):
-            timing = time_calls(lambda q=quadrupole: barnes_hut(p32, mass, theta, quadrupole=q),
-                                repeat=2)  # fmt: skip
+            timing = time_calls(
+                lambda t=theta, q=quadrupole: barnes_hut(p32, mass, t, quadrupole=q), repeat=2
+            )
             field = barnes_hut(p32, mass, theta, quadrupole=quadrupole)[:, targets]
             rms, worst = errors(field.astype(np.float64), reference)
             key = "quadrupole" if quadrupole else "monopole"
