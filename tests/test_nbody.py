@@ -23,7 +23,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 import naive_nbody as naive
 from motes import ParticleSystem
-from motes.emit.nbody import kepler_pair, plummer_sphere
+from motes.emit.nbody import disc_galaxy, kepler_pair, plummer_sphere
 from motes.forces import Coulomb, NBodyGravity, PairForce, lennard_jones
 from motes.forces.apply import add_forces
 from motes.forces.nbody import K_COULOMB, inverse_square, pair_potential_sum
@@ -351,3 +351,119 @@ def test_scene_file_mistakes_name_the_key(force, message):
 def test_bad_input_names_the_parameter(make, message):
     with pytest.raises((ValueError, TypeError), match=message):
         make()
+
+
+def test_the_nbody_guide_examples_run(capsys):
+    import re
+    from pathlib import Path
+
+    page = Path(__file__).resolve().parents[1] / "docs" / "nbody.md"
+    namespace: dict = {}
+    for block in re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.S):
+        exec(compile(block, str(page), "exec"), namespace)
+    assert "2000 stars, 500 dust grains" in capsys.readouterr().out
+    assert np.isfinite(namespace["dust"].store.raw("velocity")[:, :500]).all()
+
+
+def test_disc_galaxy_stars_are_on_circular_orbits():
+    position, velocity, mass = disc_galaxy(
+        500, core_mass=2.0, disc_mass=0.0, radius=1.0, inner_radius=0.2,
+        normal=(0.0, 0.0, 1.0), thickness=0.0, G=0.5, softening=0.05, seed=4,
+    )  # fmt: skip
+    assert mass[0] == 2.0 and position[:, 0].tolist() == [0.0, 0.0, 0.0]
+    accel = np.zeros_like(position)
+    inverse_square(position, mass, accel, coupling=0.5, softening=0.05, method="direct")
+    r = np.linalg.norm(position[:, 1:], axis=0)
+    assert ((r >= 0.2) & (r <= 1.0)).all()
+    assert_allclose(position[2, 1:], 0.0, atol=1e-15)
+    # Massless stars: the pull toward the core is exactly the centripetal v²/r.
+    inward = -(accel[:, 1:] * position[:, 1:]).sum(axis=0) / r
+    speed2 = (velocity[:, 1:] ** 2).sum(axis=0)
+    assert_allclose(inward, speed2 / r, rtol=1e-12)
+    assert_allclose((velocity[:, 1:] * position[:, 1:]).sum(axis=0), 0.0, atol=1e-12)
+    assert (np.cross(position[:, 1:].T, velocity[:, 1:].T)[:, 2] > 0).all()  # about +z
+
+
+def test_plummer_sphere_is_in_virial_equilibrium():
+    position, velocity, mass = plummer_sphere(4000, mass=2.0, radius=0.5, G=3.0, seed=9)
+    assert_allclose(mass.sum(), 2.0)
+    assert_allclose(position.mean(axis=1), 0.0, atol=1e-12)
+    kinetic = 0.5 * (mass * (velocity**2).sum(axis=0)).sum()
+    potential = NBodyGravity(3.0).potential_energy(position, mass)
+    # W = -3π G M² / (32 a); sampling noise of N = 4000 is about 2 %.
+    assert_allclose(potential, -3 * np.pi * 3.0 * 4.0 / (32 * 0.5), rtol=0.05)
+    assert_allclose(2 * kinetic / abs(potential), 1.0, atol=0.06)
+
+
+def test_scene_places_galaxies_and_clusters():
+    scene = load_scene(
+        """
+[[system]]
+name = "sky"
+capacity = 700
+integrator = "velocity_verlet"
+  [[system.force]]
+  type = "nbody_gravity"
+  G = 1.0
+  softening = 0.05
+  [[system.particles]]
+  type = "disc_galaxy"
+  count = 400
+  center = [1.0, 0.0, 0.0]
+  velocity = [0.0, 0.0, 0.5]
+  core_size = 0.1
+  color = "#ffcc88"
+  outer_color = [0.2, 0.3, 1.0]
+  [[system.particles]]
+  type = "plummer"
+  count = 300
+  center = [-3.0, 0.0, 0.0]
+  radius = 0.3
+"""
+    )
+    store = scene.systems["sky"].store
+    assert store.count == 700
+    assert_allclose(store.raw("position")[:, 0], [1.0, 0.0, 0.0])
+    assert store.raw("size")[0] == np.float32(0.1) and store.raw("size")[1] == np.float32(0.02)
+    assert_allclose(store.raw("mass")[:400].sum(), 1.1, rtol=1e-6)
+    assert_allclose(store.raw("inv_mass")[:700], 1.0 / store.raw("mass")[:700], rtol=1e-6)
+    assert_allclose(store.raw("position")[0, 400:].mean(), -3.0, atol=1e-5)
+    scene.advance()
+    assert np.isfinite(store.raw("position")[:, :700]).all()
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        ("count = 2000", "capacity"),
+        ('count = 10\n  type = "spiral"', "type"),
+        ("count = 10\n  radius = -1.0", "radius"),
+    ],
+)
+def test_scene_particle_mistakes_name_the_key(extra, message):
+    text = f"""
+[[system]]
+name = "sky"
+capacity = 100
+  [[system.force]]
+  type = "nbody_gravity"
+  [[system.particles]]
+  {extra}
+"""
+    if "type =" not in extra:
+        text = text.replace("[[system.particles]]", '[[system.particles]]\n  type = "plummer"')
+    with pytest.raises(SceneError, match=message):
+        load_scene(text)
+
+
+def test_scene_particles_need_gravity():
+    text = """
+[[system]]
+name = "sky"
+capacity = 100
+  [[system.particles]]
+  type = "plummer"
+  count = 10
+"""
+    with pytest.raises(SceneError, match="nbody_gravity"):
+        load_scene(text)

@@ -122,3 +122,138 @@ def kepler_pair(
     position = np.stack([-m2 / total * rel_x, m1 / total * rel_x], axis=1)
     velocity = np.stack([-m2 / total * rel_v, m1 / total * rel_v], axis=1)
     return position, velocity, float(2.0 * np.pi * np.sqrt(a**3 / (G * total)))
+
+
+def disc_galaxy(
+    count: int,
+    *,
+    core_mass: float = 1.0,
+    disc_mass: float = 0.1,
+    radius: float = 1.0,
+    inner_radius: float = 0.1,
+    normal=(0.0, 1.0, 0.0),
+    thickness: float = 0.02,
+    G: float = 1.0,
+    softening: float = 0.0,
+    seed: int | np.random.Generator = 0,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""A rotating disc of stars around a heavy core, on circular orbits.
+
+    The core (particle 0) holds ``core_mass``; ``count`` stars share ``disc_mass`` with
+    an exponential surface density ``Σ ∝ exp(-r / r_d)``, ``r_d = radius / 3``, between
+    ``inner_radius`` and ``radius``, and a Gaussian thickness. Each star moves on the
+    circular orbit of the mass inside its radius, ``v² = G M(<r) r² / (r² + ε²)^{3/2}``
+    (the softened force), counter-clockwise about ``normal``. With a light disc this is
+    Toomre & Toomre's (1972) model of interacting galaxies.
+
+    Parameters
+    ----------
+    count : int
+        Stars >= 1 (the core is one more particle).
+    core_mass, disc_mass : float
+        [kg], > 0 and >= 0.
+    radius, inner_radius : float
+        Outer and inner radius of the disc [m], ``0 <= inner_radius < radius``.
+    normal : (3,) array_like
+        Rotation axis (non-zero).
+    thickness : float
+        Standard deviation of the height over the disc, as a fraction of ``radius``.
+    G, softening : float
+        The gravitational constant (> 0) and Plummer softening [m] (>= 0) of the force
+        the orbits are for.
+    seed : int or numpy.random.Generator
+
+    Returns
+    -------
+    position, velocity : float64 (3, count + 1)
+        [m], [m/s]; the core at the origin, at rest.
+    particle_mass : float64 (count + 1,) [kg]
+    """
+    count = check.integer("count", count, low=1)
+    core_mass = check.positive("core_mass", core_mass)
+    disc_mass = check.non_negative("disc_mass", disc_mass)
+    outer = check.positive("radius", radius)
+    inner = check.real("inner_radius", inner_radius, low=0.0, high=outer, high_open=True)
+    axis = check.unit_vector("normal", normal)
+    thickness = check.non_negative("thickness", thickness)
+    G = check.positive("G", G)
+    eps2 = check.non_negative("softening", softening) ** 2
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    scale = outer / 3.0
+    r = np.empty(0)
+    while r.shape[0] < count:
+        # Gamma(2) radii have the density r exp(-r / r_d): an exponential disc.
+        draw = scale * rng.gamma(2.0, 1.0, 2 * count)
+        r = np.concatenate([r, draw[(draw >= inner) & (draw <= outer)]])
+    r = r[:count]
+    phi = rng.uniform(0.0, 2.0 * np.pi, count)
+    height = rng.normal(0.0, thickness * outer, count)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(axis, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    radial = np.outer(e1, np.cos(phi)) + np.outer(e2, np.sin(phi))
+    tangent = np.cross(axis[:, None], radial, axis=0)
+    star_mass = np.full(count, disc_mass / count)
+    order = np.argsort(r, kind="stable")
+    inside = np.empty(count)
+    inside[order] = np.cumsum(star_mass[order]) - star_mass[order]
+    enclosed = core_mass + inside
+    speed = np.sqrt(G * enclosed * r * r / (r * r + eps2) ** 1.5)
+    position = np.concatenate([np.zeros((3, 1)), r * radial + height * axis[:, None]], axis=1)
+    velocity = np.concatenate([np.zeros((3, 1)), speed * tangent], axis=1)
+    return position, velocity, np.concatenate([[core_mass], star_mass])
+
+
+def add_particles(system, position, velocity, *, mass=None, **attributes) -> slice:
+    """Append particles with given states to ``system`` (a ``ParticleSystem``).
+
+    Parameters
+    ----------
+    system : ParticleSystem
+    position, velocity : array_like of shape (3, n)
+        [m], [m/s].
+    mass : array_like of shape (n,), optional
+        [kg], > 0; sets ``mass`` and ``inv_mass`` (both allocated if needed).
+    **attributes : array_like of shape (n,) or (components, n)
+        Other attributes by name (``charge=...``), allocated if built in.
+
+    Returns
+    -------
+    slice
+        The new particles' indices in the store. Particles past the capacity are
+        dropped (counted in ``store.dropped``), as for emission.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from motes import ParticleSystem
+    >>> system = ParticleSystem(10)
+    >>> add_particles(system, np.zeros((3, 2)), np.ones((3, 2)), mass=[1.0, 2.0])
+    slice(0, 2, None)
+    >>> system.store.raw("inv_mass")[:2].tolist()
+    [1.0, 0.5]
+    """
+    position = np.asarray(position, dtype=np.float64)
+    if position.ndim != 2 or position.shape[0] != 3:
+        raise ValueError(f"position must have shape (3, n), got {position.shape}")
+    n = position.shape[1]
+    velocity = np.asarray(velocity, dtype=np.float64)
+    if velocity.shape != (3, n):
+        raise ValueError(f"velocity must have shape (3, {n}), got {velocity.shape}")
+    values = dict(attributes)
+    if mass is not None:
+        mass = np.asarray(mass, dtype=np.float64)
+        if mass.shape != (n,) or not (mass > 0).all():
+            raise ValueError(f"mass must be {n} numbers > 0, got shape {mass.shape}")
+        values["mass"] = mass
+        values["inv_mass"] = 1.0 / mass
+    store = system.store
+    store.require(*(name for name in values if not store.has(name)))
+    new = store.spawn(n)
+    made = new.stop - new.start
+    store.raw("position")[:, new] = position[:, :made]
+    store.raw("velocity")[:, new] = velocity[:, :made]
+    for name, value in values.items():
+        store.raw(name)[..., new] = np.asarray(value)[..., :made]
+    return new

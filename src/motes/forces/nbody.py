@@ -40,6 +40,11 @@ K_COULOMB = 8.9875517923e9
 #: ``method="auto"`` uses Barnes–Hut from this many particles up.
 AUTO_BARNES_HUT = 16384
 METHODS = ("auto", "direct", "barnes_hut")
+#: Below this many particles the octree is built and its moments summed on one thread:
+#: those passes are short (a radix-sort pass over 100,000 keys takes 0.3 ms), and the tree
+#: takes some forty parallel launches, each of which waits for a time slice on a busy
+#: machine (measured: 24 ms per launch with the 2 cores shared by 7 runnable processes).
+TREE_SERIAL_BELOW = 1 << 18
 
 
 def inverse_square(
@@ -123,21 +128,22 @@ def inverse_square(
 
 def _barnes_hut(rows, weight, scale, coupling, eps2, theta, quadrupole, leaf_size, out):
     dtype = weight.dtype
-    tree = Octree(leaf_size=leaf_size).build(np.stack(rows))
     n = weight.shape[0]
-    sx, sy, sz, sw = (np.empty(n, dtype) for _ in range(4))
-    kernels.gather_kernel(*rows, weight, tree.order, sx, sy, sz, sw)
-    nodes = tree.node_start.shape[0]
-    com = np.empty((3, nodes))
-    mass = np.empty(nodes)
-    quad = np.empty((6, nodes))
-    levels = tree.level_start
-    for level in range(levels.shape[0] - 2, -1, -1):
-        kernels.moments_kernel(
-            levels[level], levels[level + 1], tree.node_start, tree.node_count,
-            tree.node_child, tree.node_children, sx, sy, sz, sw, tree.node_center,
-            com, mass, quad,
-        )  # fmt: skip
+    with threads_for(n, below=TREE_SERIAL_BELOW):
+        tree = Octree(leaf_size=leaf_size).build(np.stack(rows))
+        sx, sy, sz, sw = (np.empty(n, dtype) for _ in range(4))
+        kernels.gather_kernel(*rows, weight, tree.order, sx, sy, sz, sw)
+        nodes = tree.node_start.shape[0]
+        com = np.empty((3, nodes))
+        mass = np.empty(nodes)
+        quad = np.empty((6, nodes))
+        levels = tree.level_start
+        for level in range(levels.shape[0] - 2, -1, -1):
+            kernels.moments_kernel(
+                levels[level], levels[level + 1], tree.node_start, tree.node_count,
+                tree.node_child, tree.node_children, sx, sy, sz, sw, tree.node_center,
+                com, mass, quad,
+            )  # fmt: skip
     offset = np.sqrt(((com - tree.node_center) ** 2).sum(axis=0))
     accept2 = (tree.node_size / theta + offset) ** 2
     leaves = tree.leaves()
