@@ -467,3 +467,22 @@ capacity = 100
 """
     with pytest.raises(SceneError, match="nbody_gravity"):
         load_scene(text)
+
+
+def test_galaxies_scene_keeps_its_cores_bound_and_draws_stars():
+    """The built-in scene, shrunk to 1,500 stars (the full one runs in the slow tier)."""
+    scene = load_scene(
+        "galaxies",
+        overrides={"system.stars.particles.0.count": 900, "system.stars.particles.1.count": 600},
+    )
+    stars = scene.systems["stars"]
+    for _ in range(15):
+        scene.advance()
+    position = stars.store.raw("position")[:, :1500].astype(np.float64)
+    assert stars.store.count == 1500 and np.isfinite(position).all()
+    # Each core still holds its inner disc: most of its stars stay within its radius.
+    for core, first, last, radius in ((0, 1, 900, 1.1), (900, 901, 1500, 0.9)):
+        offset = np.linalg.norm(position[:, first:last] - position[:, core : core + 1], axis=0)
+        assert np.mean(offset < radius * 1.2) > 0.9
+    image = scene.render((160, 90))
+    assert image.std() > 2
