@@ -16,7 +16,11 @@ Run from the repository root::
   motes[bench]``): the same sphere and particles with ``parallel=True``, starting at
   θ = 0.7 and lowering θ until its RMS error is no larger than motes'; the speed-up is
   the ratio of the two times (``barnes_hut_speedup_vs_pytreegrav``). Without pytreegrav
-  installed the comparison is skipped and the figure is absent.
+  installed the comparison is skipped and the figure is absent;
+- **k nearest neighbours**: the 16 nearest of every point of the same 1M-point Plummer
+  sphere (clustered), float64 distances: motes' octree (build + queries) against
+  scipy's cKDTree (build + ``query(workers=-1)``); the results must be identical
+  (``knn_clustered_speedup_vs_ckdtree``).
 
 Timings are the best of a few calls after a warm-up call (which compiles or loads the
 kernels); the cores other processes kept busy are reported too.
@@ -30,6 +34,7 @@ import numpy as np
 from motes._jit import parallel_kernel
 from motes.emit.nbody import plummer_sphere
 from motes.forces.nbody import inverse_square
+from motes.spatial import Octree
 
 from ._common import benchmark_main, machine, table, time_calls
 
@@ -106,6 +111,23 @@ def pytreegrav_comparison(position, mass, targets, reference, target_rms, repeat
     return None
 
 
+def knn_comparison(position, repeat):
+    """Time 16 nearest neighbours of every point: the octree, then cKDTree."""
+    from scipy.spatial import cKDTree
+
+    def ours():
+        return Octree(leaf_size=16).build(position).knn(position, 16)
+
+    def theirs():
+        return cKDTree(position.T).query(position.T, 16, workers=-1)
+
+    a, b = ours(), theirs()
+    same = bool(np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]))
+    if not same:
+        raise RuntimeError("the octree's nearest neighbours differ from cKDTree's")
+    return time_calls(ours, repeat=repeat), time_calls(theirs, repeat=repeat), same
+
+
 def measure(quick: bool) -> dict:
     n_direct = 4096 if quick else 32_768
     n_tree = 50_000 if quick else 1_000_000
@@ -128,7 +150,12 @@ def measure(quick: bool) -> dict:
     rms, worst = errors(barnes_hut(p32, mass, THETA)[:, targets].astype(np.float64), reference)
     baseline = pytreegrav_comparison(position, mass, targets, reference, rms, max(1, repeat - 1))
 
+    knn, ckdtree, same = knn_comparison(position, repeat)
+
     figures = {
+        "knn_1m_s": knn.best,
+        "ckdtree_knn_1m_s": ckdtree.best,
+        "knn_clustered_speedup_vs_ckdtree": ckdtree.best / knn.best,
         "direct_gpairs_per_s": gpairs,
         "direct_seconds": direct.best,
         "barnes_hut_1m_s": tree.best,
@@ -145,6 +172,9 @@ def measure(quick: bool) -> dict:
         ("Barnes–Hut θ = 0.7", f"{n_tree:,} points: {tree.best:8.3f} s "
                                f"(median {tree.median:.3f})"),
         ("  error vs direct", f"RMS {rms:.2e}, max {worst:.2e} ({SAMPLE} particles)"),
+        ("k = 16 nearest, octree", f"{knn.best:8.3f} s (build + queries, identical: {same})"),
+        ("k = 16 nearest, cKDTree", f"{ckdtree.best:8.3f} s (all workers)"),
+        ("  speed-up", f"{ckdtree.best / knn.best:8.2f}x"),
     ]  # fmt: skip
     if baseline is None:
         rows.append(("pytreegrav", "not installed (pip install motes[bench]) or no θ matched"))

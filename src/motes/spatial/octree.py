@@ -29,7 +29,7 @@ import numba
 import numpy as np
 
 from .. import _validate
-from .._jit import parallel_kernel, serial_kernel
+from .._jit import block_bounds, block_count, parallel_kernel, serial_kernel
 
 #: Bits per coordinate in a Morton code (3 x 21 = 63 bits: a positive int64).
 BITS = 21
@@ -271,6 +271,8 @@ class Octree:
         x, y, z = (np.ascontiguousarray(row) for row in pos)
         morton_codes(x, y, z, lo, 1.0 / unit, codes)
         self.codes, self.order = radix_sort(codes)
+        #: The points in sorted order, shape (3, n), their dtype.
+        self.sorted_points = pos[:, self.order]
         self._nodes(n, unit)
         return self
 
@@ -313,6 +315,135 @@ class Octree:
         """Number of points."""
         return int(self.node_count[0])
 
+    def knn(self, points, k: int, *, exclude_self: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """The ``k`` nearest tree points of each query point, nearest first.
+
+        Parameters
+        ----------
+        points : array of shape (3, m)
+            Query points [m].
+        k : int
+            Neighbours per query, 1 <= k <= number of tree points (less one with
+            ``exclude_self``).
+        exclude_self : bool
+            The queries are the tree's own points, in their original order: leave each
+            point out of its own list.
+
+        Returns
+        -------
+        distance : float64 (m, k)
+            Euclidean distances [m], ascending (computed in float64).
+        index : int64 (m, k)
+            Indices of the neighbours among the points given to :meth:`build`.
+        """
+        q = np.asarray(points)
+        if q.ndim != 2 or q.shape[0] != 3:
+            raise ValueError(f"points must have shape (3, m), got {q.shape}")
+        most = self.count - (1 if exclude_self else 0)
+        k = _validate.integer("k", k, low=1)
+        if k > most:
+            raise ValueError(f"k must be <= {most} (the points available), got {k}")
+        if exclude_self and q.shape[1] != self.count:
+            raise ValueError("exclude_self needs the tree's own points as the queries")
+        qx, qy, qz = (np.ascontiguousarray(r, dtype=np.float64) for r in q)
+        sx, sy, sz = (np.ascontiguousarray(r, dtype=np.float64) for r in self.sorted_points)
+        slot_of = np.empty(self.count, np.int64)
+        slot_of[self.order] = np.arange(self.count)
+        self_slot = slot_of if exclude_self else np.full(1, -1, np.int64)
+        distance = np.empty((q.shape[1], k))
+        index = np.empty((q.shape[1], k), np.int64)
+        slack = self.edge / (1 << BITS)
+        # Queries in Morton order: consecutive queries descend the same branches.
+        codes = np.empty(q.shape[1], np.int64)
+        morton_codes(qx, qy, qz, self.origin, 1.0 / slack, codes)
+        queries = radix_sort(codes)[1]
+        _knn_kernel(
+            qx, qy, qz, queries, sx, sy, sz, self.order, self.node_start, self.node_count,
+            self.node_child, self.node_children, self.node_center, self.node_size / 2 + slack,
+            self_slot, exclude_self, distance, index,
+        )  # fmt: skip
+        np.sqrt(distance, out=distance)
+        return distance, index
+
     def leaves(self) -> np.ndarray:
         """Indices of the leaf nodes, in breadth-first order (int64)."""
         return np.flatnonzero(self.node_child < 0)
+
+
+@numba.njit(inline="always")
+def _box_distance2(px, py, pz, center, half, k):
+    dx = max(abs(px - center[0, k]) - half[k], 0.0)
+    dy = max(abs(py - center[1, k]) - half[k], 0.0)
+    dz = max(abs(pz - center[2, k]) - half[k], 0.0)
+    return dx * dx + dy * dy + dz * dz
+
+
+@parallel_kernel
+def _knn_kernel(
+    qx, qy, qz, queries, sx, sy, sz, order, start, count, child, children, center, half,
+    self_slot, exclude_self, out_d2, out_index,
+):  # fmt: skip
+    """Best-first descent with a sorted list of the ``k`` nearest so far.
+
+    A node is skipped when its cell (grown by the codes' quantum) is farther than the
+    current ``k``-th distance; children are visited nearest cell first. Squared
+    distances in float64; ties keep the point met first.
+    """
+    m = qx.shape[0]
+    k = out_d2.shape[1]
+    for block in numba.prange(block_count(m)):
+        lo, hi = block_bounds(block, m)
+        stack = np.empty(8 * 22, np.int64)
+        near = np.empty(8)
+        kids = np.empty(8, np.int64)
+        best = np.empty(k)
+        slot = np.empty(k, np.int64)
+        for t in range(lo, hi):
+            i = queries[t]
+            px, py, pz = qx[i], qy[i], qz[i]
+            own = self_slot[i] if exclude_self else -1
+            for j in range(k):
+                best[j] = np.inf
+                slot[j] = -1
+            top = 1
+            stack[0] = 0
+            while top > 0:
+                top -= 1
+                node = stack[top]
+                if _box_distance2(px, py, pz, center, half, node) > best[k - 1]:
+                    continue
+                if child[node] < 0:
+                    for s in range(start[node], start[node] + count[node]):
+                        if s == own:
+                            continue
+                        dx = sx[s] - px
+                        dy = sy[s] - py
+                        dz = sz[s] - pz
+                        d2 = dx * dx + dy * dy + dz * dz
+                        if d2 < best[k - 1]:
+                            j = k - 1
+                            while j > 0 and best[j - 1] > d2:
+                                best[j] = best[j - 1]
+                                slot[j] = slot[j - 1]
+                                j -= 1
+                            best[j] = d2
+                            slot[j] = s
+                    continue
+                # Push the children farthest first, so the nearest is taken next.
+                n_kids = children[node]
+                for c in range(n_kids):
+                    kid = child[node] + c
+                    d = _box_distance2(px, py, pz, center, half, kid)
+                    j = c
+                    while j > 0 and near[j - 1] < d:
+                        near[j] = near[j - 1]
+                        kids[j] = kids[j - 1]
+                        j -= 1
+                    near[j] = d
+                    kids[j] = kid
+                for c in range(n_kids):
+                    stack[top] = kids[c]
+                    top += 1
+            for j in range(k):
+                out_d2[i, j] = best[j]
+                out_index[i, j] = order[slot[j]]
