@@ -486,3 +486,12 @@ def test_galaxies_scene_keeps_its_cores_bound_and_draws_stars():
         assert np.mean(offset < radius * 1.2) > 0.9
     image = scene.render((160, 90))
     assert image.std() > 2
+
+
+def test_coulomb_reads_a_charge_the_user_declared():
+    from motes import Attribute
+
+    system = ParticleSystem(4, attributes=(Attribute("charge", default=-1.0, unit="C"),))
+    system.add(Coulomb())  # the user's declaration stands
+    system.store.spawn(2)
+    assert system.store.raw("charge")[:2].tolist() == [-1.0, -1.0]

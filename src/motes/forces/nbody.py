@@ -295,9 +295,11 @@ class Coulomb(_InverseSquare):
         from ..particles import BUILTIN
 
         store.require("position")
+        if store.has(self.charge):
+            return
         if self.charge in BUILTIN:
             store.require(self.charge)
-        elif not store.has(self.charge):
+        else:
             raise KeyError(
                 f"Coulomb reads charges from attribute {self.charge!r}, which this store "
                 "lacks: declare it with motes.Attribute"
