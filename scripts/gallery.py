@@ -22,6 +22,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: moment that shows the effect.
 STILL_AT = {
     "explosion": 0.15,
+    "galaxies": 0.65,
     "fireworks": 0.5,
     "curtain": 0.85,
     "hair": 0.35,

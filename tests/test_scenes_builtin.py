@@ -27,7 +27,7 @@ def check_common(scene):
 
 # The costliest scenes to compile and run (30-100 s each from an empty kernel cache);
 # each keeps a scene test of its own in the default run or the slow tier.
-SLOW_SCENES = {"floating", "rain_on_flag", "explosion", "box_tower"}
+SLOW_SCENES = {"floating", "rain_on_flag", "explosion", "box_tower", "galaxies"}
 
 
 @pytest.mark.parametrize(

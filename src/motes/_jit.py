@@ -51,6 +51,11 @@ _COMMON = {"fastmath": set(FASTMATH), "error_model": "numpy"}
 #: Parallel kernel over particles: iterations must be independent.
 parallel_kernel = njit(parallel=True, cache=True, **_COMMON)
 
+#: Parallel kernel built at run time around a user's compiled function (a pair force):
+#: Numba cannot cache a kernel that closes over another compiled function, so it compiles
+#: once per process.
+parallel_factory = njit(parallel=True, **_COMMON)
+
 #: Serial kernel: order-dependent loops (compaction, scans) and small systems.
 serial_kernel = njit(cache=True, **_COMMON)
 

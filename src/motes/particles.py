@@ -93,6 +93,7 @@ BUILTIN = {
         Attribute(
             "inv_mass", 1, default=1.0, doc="1/mass [1/kg]; 0 pins the particle", unit="1/kg"
         ),
+        Attribute("charge", 1, doc="electric charge [C]", unit="C"),
         Attribute("color", 4, default=(1.0, 1.0, 1.0, 1.0), doc="linear RGBA in [0, 1]", unit="1"),
         Attribute("size", 1, default=0.05, doc="radius [m]", unit="m"),
         Attribute("rotation", 1, doc="sprite rotation about the view axis [rad]", unit="rad"),

@@ -239,6 +239,9 @@ def emitter(table: Table, camera, base: Path, *, template: bool = False) -> emit
     }
     for key in ("color", "size", "mass", "rotation"):
         kwargs[key] = table.get(key, distribution, None)
+    charge = table.get("charge", distribution, None)
+    if charge is not None:
+        kwargs["attributes"] = {"charge": charge}
     the_shape = table.get("shape", lambda v, p: shape(v, p, base), None)
     the_rate = None if template else table.get("rate", lambda v, p: rate(v, p, camera))
     table.finish()
@@ -286,6 +289,25 @@ _FORCES = {
         radius=t.get("radius", positive(), 1.0),
         pull=t.get("pull", number(), 0.0),
     ),
+    "nbody_gravity": lambda t: build(
+        t.path,
+        forces.NBodyGravity,
+        t.get("G", positive(), forces.nbody.G_SI),
+        **_summation(t),
+    ),
+    "coulomb": lambda t: build(
+        t.path,
+        forces.Coulomb,
+        k=t.get("k", positive(), forces.nbody.K_COULOMB),
+        **_summation(t),
+    ),
+    "lennard_jones": lambda t: build(
+        t.path,
+        _lennard_jones,
+        t.get("epsilon", positive()),
+        t.get("sigma", positive()),
+        t.get("cutoff", positive(), None),
+    ),
     "curl_noise": lambda t: build(
         t.path,
         forces.CurlNoise,
@@ -296,6 +318,20 @@ _FORCES = {
         time_scale=t.get("time_scale", number(), 0.0),
     ),
 }
+
+
+def _summation(t: Table) -> dict:
+    """The keys shared by the inverse-square pair forces."""
+    return {
+        "softening": t.get("softening", number(0.0), 0.0),
+        "method": t.get("method", one_of(*forces.nbody.METHODS), "auto"),
+        "theta": t.get("theta", number(0.0, 1.0, low_open=True), 0.7),
+        "quadrupole": t.get("quadrupole", boolean, False),
+    }
+
+
+def _lennard_jones(epsilon, sigma, cutoff):
+    return forces.PairForce(forces.lennard_jones(epsilon, sigma), cutoff=cutoff)
 
 
 def force(table: Table):
@@ -451,3 +487,76 @@ def modifier(table: Table):
 
 INTEGRATORS = tuple(i.value for i in Integrator)
 EVENT_KINDS = tuple(KINDS)
+
+
+# --- particles placed at load time --------------------------------------------------------
+
+#: Most particles one ``[[system.particles]]`` table may place.
+MAX_PLACED = 10_000_000
+
+
+def place_particles(table: Table, system) -> None:
+    """Add the particles of a ``[[system.particles]]`` table to ``system``.
+
+    ``type = "plummer"`` (a star cluster in equilibrium) or ``"disc_galaxy"`` (stars on
+    circular orbits around a heavy core); the orbits are for the system's
+    ``nbody_gravity`` force (its ``G`` and softening), which must come first. Moved to
+    ``center``, given the bulk ``velocity``; coloured ``color`` at the centre shading to
+    ``outer_color`` at the edge, radius ``size`` (a galaxy's core ``core_size``).
+    """
+    from ..emit import nbody
+
+    kind = table.get("type", one_of("plummer", "disc_galaxy"))
+    count = table.get("count", integer(1, MAX_PLACED))
+    gravity = next((f for f in system.forces if isinstance(f, forces.NBodyGravity)), None)
+    if gravity is None:
+        raise SceneError(
+            table.key_path("type"),
+            "placed particles orbit under the system's gravity: add a "
+            '[[system.force]] with type = "nbody_gravity" before them',
+        )
+    free = system.store.capacity - system.store.count
+    if count > free:
+        raise SceneError(table.key_path("count"), f"{count} particles exceed the {free} free "
+                         "places of the system's capacity")  # fmt: skip
+    center = np.asarray(table.get("center", vector(), (0.0, 0.0, 0.0)))
+    bulk = np.asarray(table.get("velocity", vector(), (0.0, 0.0, 0.0)))
+    common = {"G": gravity.G, "seed": system.rng}
+    if kind == "plummer":
+        radius = table.get("radius", positive(), 1.0)
+        position, velocity, mass = build(
+            table.path, nbody.plummer_sphere, count,
+            mass=table.get("mass", positive(), 1.0), radius=radius, **common,
+        )  # fmt: skip
+        extent = 3.0 * radius
+    else:
+        radius = table.get("radius", positive(), 1.0)
+        position, velocity, mass = build(
+            table.path, nbody.disc_galaxy, count - 1,
+            core_mass=table.get("core_mass", positive(), 1.0),
+            disc_mass=table.get("disc_mass", number(0.0), 0.1),
+            radius=radius,
+            inner_radius=table.get("inner_radius", number(0.0), 0.1 * radius),
+            normal=table.get("normal", vector(), (0.0, 1.0, 0.0)),
+            thickness=table.get("thickness", number(0.0), 0.02),
+            softening=gravity.softening, **common,
+        )  # fmt: skip
+        extent = radius
+    inner = _rgba(table.get("color", color, (1.0, 1.0, 1.0, 1.0)))
+    outer = _rgba(table.get("outer_color", color, tuple(inner)))
+    size = table.get("size", positive(), 0.02)
+    sizes = np.full(count, size)
+    if kind == "disc_galaxy":
+        sizes[0] = table.get("core_size", positive(), size)
+    table.finish()
+    t = np.clip(np.linalg.norm(position, axis=0) / extent, 0.0, 1.0)
+    tint = inner[:, None] * (1.0 - t) + outer[:, None] * t
+    nbody.add_particles(
+        system, position + center[:, None], velocity + bulk[:, None], mass=mass,
+        color=tint, size=sizes, lifetime=np.full(count, np.inf),
+    )  # fmt: skip
+
+
+def _rgba(value) -> np.ndarray:
+    value = np.asarray(value, dtype=np.float64)
+    return value if value.shape == (4,) else np.append(value, 1.0)

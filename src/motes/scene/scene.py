@@ -514,6 +514,8 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
             system.add(parts.emitter(e, camera, base))
         for f in t.tables("force"):
             system.add(parts.force(f))
+        for p in t.tables("particles"):
+            parts.place_particles(p, system)
         for m in t.tables("modifier"):
             system.add(parts.modifier(m))
         for c in t.tables("collider"):
