@@ -82,34 +82,16 @@ def field_acceleration(vx, vy, vz, w, params, quadratic):
 # Numba's disk cache keys by a pickle that differs in every process (no cache hit).
 @called
 def sweep(
-    structure,
-    x0,
-    y0,
-    z0,
-    px,
-    py,
-    pz,
-    vx,
-    vy,
-    vz,
-    ax,
-    ay,
-    az,
-    params,
-    table,
-    tri,
-    cell_start,
-    cell_tris,
-    dt,
-    one,
-):
+    structure, x0, y0, z0, px, py, pz, vx, vy, vz, ax, ay, az,
+    params, table, tri, cell_start, cell_tris, dt, one,
+):  # fmt: skip
     """The step's path against the swept colliders: at the earliest entry the
     particle responds at that time and moves on for the rest of the step.
 
-    ``structure`` is ``(kinds, insides, responses, frictions, sweeps, any_mesh,
-    explicit)`` as :func:`step_kernel` unpacks it. Returns position, velocity, the
+    ``structure`` is ``(kinds, insides, responses, frictions, sweeps, explicit)`` as
+    :func:`step_kernel` unpacks it. Returns position, velocity, the
     collider hit (-1: none) and whether it dies."""
-    kinds, insides, responses, frictions, sweeps, any_mesh, explicit = structure
+    kinds, insides, responses, frictions, sweeps, explicit = structure
     zero = one - one
     half = one / (one + one)
     dx = px - x0
@@ -125,58 +107,16 @@ def sweep(
     nx = ny = nz = off = zero
     for c in range(len(sweeps)):
         if sweeps[c]:
-            if any_mesh:
-                if kinds[c] == _MESH:
-                    f, mx, my, mz, mo = mesh_first_hit(
-                        table[c],
-                        tri,
-                        cell_start,
-                        cell_tris,
-                        float(x0),
-                        float(y0),
-                        float(z0),
-                        float(dx),
-                        float(dy),
-                        float(dz),
-                        0.0,
-                    )
-                else:
-                    f, mx, my, mz = first_hit(
-                        kinds[c],
-                        insides[c],
-                        table,
-                        c,
-                        x0,
-                        y0,
-                        z0,
-                        dx,
-                        dy,
-                        dz,
-                        bx,
-                        by,
-                        bz,
-                        zero,
-                        one,
-                    )
-                    mo = zero
+            if kinds[c] == _MESH:
+                f, mx, my, mz, mo = mesh_first_hit(
+                    table[c], tri, cell_start, cell_tris,
+                    float(x0), float(y0), float(z0), float(dx), float(dy), float(dz), 0.0,
+                )  # fmt: skip
             else:
                 f, mx, my, mz = first_hit(
-                    kinds[c],
-                    insides[c],
-                    table,
-                    c,
-                    x0,
-                    y0,
-                    z0,
-                    dx,
-                    dy,
-                    dz,
-                    bx,
-                    by,
-                    bz,
-                    zero,
-                    one,
-                )
+                    kinds[c], insides[c], table, c,
+                    x0, y0, z0, dx, dy, dz, bx, by, bz, zero, one,
+                )  # fmt: skip
                 mo = zero
             if f < best:
                 best, hit, nx, ny, nz, off = f, c, mx, my, mz, mo
@@ -278,7 +218,7 @@ def step_kernel(
     # Multi-stage schemes move the particles before the kernel: no path to sweep.
     any_swept = moving and any(sweeps)
     any_mesh = _MESH in kinds[:n_colliders]
-    structure = (kinds, insides, responses, frictions, sweeps, any_mesh, explicit)
+    structure = (kinds, insides, responses, frictions, sweeps, explicit)
 
     @parallel_kernel
     def kernel(
@@ -349,27 +289,9 @@ def step_kernel(
                 last_hit = -1
                 if any_swept:
                     px, py, pz, vx, vy, vz, swept_hit, swept_kill = sweep(
-                        structure,
-                        x0,
-                        y0,
-                        z0,
-                        px,
-                        py,
-                        pz,
-                        vx,
-                        vy,
-                        vz,
-                        ax,
-                        ay,
-                        az,
-                        params,
-                        table,
-                        tri,
-                        cell_start,
-                        cell_tris,
-                        dt,
-                        one,
-                    )
+                        structure, x0, y0, z0, px, py, pz, vx, vy, vz, ax, ay, az,
+                        params, table, tri, cell_start, cell_tris, dt, one,
+                    )  # fmt: skip
                     killed |= swept_kill
                     if track_hits:
                         last_hit = swept_hit

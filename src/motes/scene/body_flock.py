@@ -19,13 +19,13 @@ from __future__ import annotations
 import numpy as np
 
 from .. import flock as fl
+from ..collide import TriangleMeshCollider
 from ..flock.meshes import BIRD, FISH, faces, vertices
 from ..render import geometry
 from ..render.shading import Material
 from ..render.sprites import SpriteStyle
 from ..state import Field
 from .bodies import Body, BuildContext, register
-from .parts import is_mesh_collider
 from .schema import (
     SceneError,
     Table,
@@ -294,7 +294,7 @@ def build_flock(table: Table, context: BuildContext) -> FlockBody:
     flock.add(*_targets(table))
     if table.get("colliders", boolean, True) and context.colliders:
         for collider in context.colliders:
-            if is_mesh_collider(collider):
+            if isinstance(collider, TriangleMeshCollider):
                 raise SceneError(
                     table.key_path("colliders"),
                     "flocks avoid planes, spheres, boxes and capsules, not the scene's "
