@@ -12,7 +12,7 @@ radius ``ε``, finite at any distance, so close encounters need no tiny steps.
 
 Two summations compute it (:func:`inverse_square`):
 
-- ``"direct"``: every pair, O(n²), in tiles that vectorise (see ``_nbody_kernels``). The
+- ``"direct"``: every pair, O(n²), in tiles that vectorise (see ``nbody_kernels``). The
   pair terms are antisymmetric (``x_j - x_i`` and ``x_i - x_j`` round to exact negatives
   and share one distance), so linear momentum is conserved to round-off.
 - ``"barnes_hut"``: an :class:`~motes.spatial.octree.Octree` and the Barnes & Hut (1986)
@@ -30,7 +30,7 @@ import numpy as np
 from .. import _validate as check
 from .._jit import threads_for
 from ..spatial.octree import Octree
-from . import _nbody_kernels as kernels
+from . import nbody_kernels as kernels
 from .base import Force, check_buffers, particle_mass
 
 #: Gravitational constant [m^3 kg^-1 s^-2] (CODATA 2018).
