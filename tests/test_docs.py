@@ -22,6 +22,7 @@ def run_blocks(path: Path) -> dict:
     return namespace
 
 
+@pytest.mark.slow  # the guide compiles most kernels of the library: about 2 minutes
 def test_guide_examples_run(capsys):
     blocks = re.findall(r"```python\n(.*?)```", GUIDE.read_text(), flags=re.S)
     assert len(blocks) >= 8

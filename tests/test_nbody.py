@@ -469,6 +469,7 @@ capacity = 100
         load_scene(text)
 
 
+@pytest.mark.slow
 def test_galaxies_scene_keeps_its_cores_bound_and_draws_stars():
     """The built-in scene, shrunk to 1,500 stars (the full one runs in the slow tier)."""
     scene = load_scene(

@@ -27,7 +27,10 @@ def check_common(scene):
 
 # The costliest scenes to compile and run (30-100 s each from an empty kernel cache);
 # each keeps a scene test of its own in the default run or the slow tier.
-SLOW_SCENES = {"floating", "rain_on_flag", "explosion", "box_tower", "galaxies"}
+# rain and fish_school keep tests of their own (test_rain_collisions_*, test_flock_scene).
+SLOW_SCENES = {
+    "floating", "rain_on_flag", "explosion", "box_tower", "galaxies", "rain", "fish_school",
+}  # fmt: skip
 
 
 @pytest.mark.parametrize(
@@ -72,6 +75,7 @@ def test_rain_collisions_spawn_splashes_above_the_ground():
     assert (scene.systems["drops"]["position"][:, 1] >= -1e-3).all()
 
 
+@pytest.mark.slow
 def test_explosion_debris_stays_on_the_ground_and_slows_down():
     scene = load_scene("explosion")
     advance(scene, 4.0)
