@@ -49,6 +49,7 @@ def test_cloth_guide_examples_run(capsys):
     assert "True" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # about a minute from an empty kernel cache; tests/test_fluid*.py cover it
 def test_fluids_guide_examples_run(capsys):
     namespace = run_blocks(DOCS / "fluids.md")
     assert namespace["water"].density_error < 0.02

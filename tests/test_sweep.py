@@ -171,8 +171,10 @@ WALLS = {
 }
 
 
-# The box's swept kernel is also the kill test's; the mesh's stays in the default tier.
-@pytest.mark.parametrize("wall", [pytest.param("box", marks=pytest.mark.slow), "mesh"])
+# Slow tier: each wall compiles two kernels of its own (swept and after the move); swept
+# boxes and meshes stay in the default tier through the kill and mesh-plate tests.
+@pytest.mark.slow
+@pytest.mark.parametrize("wall", ["box", "mesh"])
 def test_a_100_m_s_spark_never_passes_a_1_cm_wall(wall):
     assert np.all(shot(WALLS[wall]("priori")) < 0.0)
     # After the move alone, nearly every one passes (the wall is 1/167 of a step thick).
