@@ -58,6 +58,7 @@ def test_fluids_guide_examples_run(capsys):
     assert "True" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # about a minute from an empty kernel cache; tests/test_rigid*.py cover it
 def test_rigid_guide_examples_run(capsys):
     namespace = run_blocks(DOCS / "rigid.md")
     assert 0.2 < namespace["centre"][0][1] < 2.1  # the resting crate, then the twisted box
