@@ -19,10 +19,10 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import block_bounds, block_count, called, device, parallel_kernel
+from .._jit import block_bounds, block_count, called, device, ordered_sum, parallel_kernel
 from ..geometry.distance import row_signed_distance
 from ..geometry.layout import ADHESION, FRICTION, FRICTION_MODEL
-from ..spatial.kernels import cell_coordinate
+from ..spatial.kernels import CHUNK, cell_coordinate
 from .sph import poly6, spiky, spiky_gradient_scale, wall_share
 
 #: Akinci et al. 2013, eq. 2: cohesion spline normalisation, 32 / π.
@@ -372,15 +372,19 @@ def cell_density(sx, sy, sz, cell_start, origin, inv_cell, dims, h, out):
     """Number density ``Σ_j W_poly6`` [1/m³] of grid-sorted points, by cell traversal.
 
     No neighbour list: each point visits the cell rows its box ``[p - h, p + h]``
-    touches and sums the kernel, a loop Numba vectorises (the list-building query
-    cannot be: it appends). ``out`` in sorted order.
+    touches. A row's terms go into a small buffer in one loop that vectorises (nothing
+    is summed in it), and are then added in a fixed order by :func:`ordered_sum` (a
+    plain running sum would not vectorise: the kernels may not reassociate floats).
+    ``out`` in sorted order.
     """
     n = sx.shape[0]
     nx, ny, nz = dims[0], dims[1], dims[2]
-    h2 = h * h
+    h2 = np.float32(h * h)
     reach = h * (1.0 + 1e-7)
+    step = np.uint64(CHUNK)
     for block in prange(block_count(n)):
         start, stop = block_bounds(block, n)
+        terms = np.empty(CHUNK, np.float32)
         for q in range(start, stop):
             px, py, pz = sx[q], sy[q], sz[q]
             x0 = cell_coordinate(px - reach, origin[0], inv_cell, nx)
@@ -393,14 +397,19 @@ def cell_density(sx, sy, sz, cell_start, origin, inv_cell, dims, h, out):
             for cz in range(z0, z1 + 1):
                 for cy in range(y0, y1 + 1):
                     row = nx * (cy + ny * cz)
-                    first = np.uint64(cell_start[row + x0])
+                    chunk = np.uint64(cell_start[row + x0])
                     end = np.uint64(cell_start[row + x1 + 1])
-                    for s in range(first, end):
-                        dx = sx[s] - px
-                        dy = sy[s] - py
-                        dz = sz[s] - pz
-                        d = max(np.float32(h2) - (dx * dx + dy * dy + dz * dz), np.float32(0.0))
-                        total += d * d * d
+                    while chunk < end:
+                        size = min(end - chunk, step)
+                        for t in range(size):
+                            s = chunk + t
+                            dx = sx[s] - px
+                            dy = sy[s] - py
+                            dz = sz[s] - pz
+                            d = max(h2 - (dx * dx + dy * dy + dz * dz), np.float32(0.0))
+                            terms[t] = d * d * d
+                        total += ordered_sum(terms, size)
+                        chunk += size
             out[q] = total * np.float32(poly6(0.0, h) / h**6)
 
 
