@@ -152,3 +152,14 @@ def test_emitted_shapes_use_the_system_rng_only():
     first = build()
     np.random.seed(1)  # noqa: NPY002
     assert_array_equal(first, build())
+
+
+def test_per_second_stops_at_its_stop_time():
+    """100/s with stop = 2.5 s: 250 births whatever the step, none after the stop, and
+    the step that straddles the stop counts only the time before it."""
+    for dt in (1 / 60, 1 / 7):
+        n = counts(mo.PerSecond(100.0, stop=2.5), frames=round(5 / dt), dt=dt)
+        assert n.sum() in (249, 250)
+        assert n[int(np.ceil(2.5 / dt)) :].sum() == 0
+    with pytest.raises(ValueError, match="stop"):
+        mo.PerSecond(10.0, stop=-1.0)

@@ -29,7 +29,8 @@ from motes.forces.apply import add_forces
 from motes.forces.nbody import K_COULOMB, inverse_square, pair_potential_sum
 from motes.scene import load_scene
 from motes.scene.schema import SceneError
-from motes.spatial.octree import BITS, Octree, morton_codes, radix_sort
+from motes.spatial.morton import BITS, morton_codes, radix_sort
+from motes.spatial.octree import Octree
 
 
 @pytest.fixture(scope="module")

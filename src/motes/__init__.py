@@ -13,7 +13,7 @@ from . import colliders, constrain, fluids, geometry, io, render, rigid, scene, 
 from ._memory import InsufficientMemoryError
 from ._version import __version__ as __version__
 from .cloth import Airflow, Cloth, Keyframes, SpringFamily
-from .collide import Capsule, Friction, Response, TriangleMeshCollider
+from .collide import Capsule, Friction, ParticleCollisions, Response, TriangleMeshCollider
 from .constrain import ConstraintBuilder
 from .emit import (
     Burst,
@@ -127,6 +127,7 @@ __all__ = [
     "NonFiniteError",
     "Normal",
     "PairForce",
+    "ParticleCollisions",
     "ParticleEvent",
     "ParticleStore",
     "ParticleSystem",

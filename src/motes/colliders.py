@@ -1,5 +1,6 @@
 """Colliders by their short names: ``motes.colliders.Plane``, ``.Sphere``, ``.Box``,
-``.Capsule``, ``.TriangleMeshCollider``."""
+``.Capsule``, ``.TriangleMeshCollider``, and particles against each other,
+``.ParticleCollisions``."""
 
 from .collide import (
     Box,
@@ -7,6 +8,7 @@ from .collide import (
     Collider,
     Detection,
     Friction,
+    ParticleCollisions,
     Plane,
     Response,
     Sphere,
@@ -19,6 +21,7 @@ __all__ = [
     "Collider",
     "Detection",
     "Friction",
+    "ParticleCollisions",
     "Plane",
     "Response",
     "Sphere",

@@ -140,6 +140,8 @@ class ParticleSystem:
                 self.colliders.append(item)
             elif isinstance(item, KindContact):
                 self.store.require(*item.reads)
+                if hasattr(item, "bind"):
+                    item.bind(self)
                 self.contacts.append(item)
             elif isinstance(item, _OverLife):
                 item.bind(self.store)

@@ -92,14 +92,18 @@ class PerSecond(Rate):
     """A steady rate [particles/s]; the fractional part carries over to the next step.
 
     Over any run of steps, the total emitted is ``floor(rate · elapsed time)`` or one less,
-    whatever the step size (deterministic: no randomness).
+    whatever the step size (deterministic: no randomness). ``stop`` [s]: no births from
+    that time on (a tap turned off); None runs for ever.
     """
 
-    def __init__(self, rate: float):
+    def __init__(self, rate: float, *, stop: float | None = None):
         self.rate = check.non_negative("rate", rate)
+        self.stop = None if stop is None else check.non_negative("stop", stop)
         self._carry = 0.0
 
     def count(self, rng, frame, time, dt, emitter=None):
+        if self.stop is not None:
+            dt = min(dt, max(self.stop - time, 0.0))  # only the part before the stop
         total = self._carry + self.rate * dt
         whole = math.floor(total + 1e-9)
         self._carry = total - whole

@@ -7,8 +7,9 @@ import numpy as np
 from .. import _memory
 from .. import _validate as check
 from .._jit import threads_for
-from ..spatial.grid import Neighbors, UniformGrid
+from ..spatial.grid import UniformGrid
 from ..spatial.kernels import compact_rows
+from ..spatial.neighbors import Neighbors
 from ..state import Field, ParticleState
 from . import kernels
 from .behaviors import TARGETS, AvoidColliders, Interaction, Wander, pack_targets

@@ -5,8 +5,9 @@ r"""A user pair force: any compiled function of distance, between every pair of 
 .. math:: F_i = \sum_{j \ne i,\ r_{ij} < r_c} f(r_{ij}) \, (x_i - x_j) / r_{ij}
 
 where ``f(r) = -dU/dr`` [N] is the radial force of a pair potential ``U(r)`` (positive
-repels). With a cutoff ``r_c`` the pairs come from a uniform grid
-(:class:`~motes.spatial.grid.UniformGrid`, CSR lists); without one, every pair is summed.
+repels). With a cutoff ``r_c`` the pairs come from a spatial structure, the uniform grid
+by default (:func:`motes.spatial.spatial_index`, CSR lists); without one, every pair is
+summed.
 Each pair's term is computed once from each side with the same distance and opposite
 directions, so momentum is conserved to round-off, and each particle sums its pairs in a
 fixed order (bit-identical for any thread count).
@@ -24,7 +25,7 @@ from numba.core.registry import CPUDispatcher
 
 from .. import _validate as check
 from .._jit import block_bounds, block_count, device, parallel_factory, threads_for
-from ..spatial.grid import UniformGrid
+from ..spatial.index import STRUCTURES, spatial_index
 from .base import Force, check_buffers
 
 
@@ -67,7 +68,12 @@ class PairForce(Force):
         distances > 0.
     cutoff : float or None
         Pairs farther apart than ``cutoff`` > 0 [m] are left out, and pairs are found with
-        a uniform grid (O(n) for short-range forces); None sums every pair (O(n²)).
+        a spatial structure (O(n log n) at most for short-range forces); None sums every
+        pair (O(n²)).
+    structure : {"grid", "octree", "kdtree"}
+        Where the pairs within ``cutoff`` are found (:func:`motes.spatial.spatial_index`):
+        the uniform grid (fastest for evenly spread particles: a gas, a liquid) or a tree
+        (for clustered ones, where most grid cells are empty and a few hold everything).
 
     Examples
     --------
@@ -82,7 +88,7 @@ class PairForce(Force):
 
     reads = ("position",)
 
-    def __init__(self, force, *, cutoff: float | None = None):
+    def __init__(self, force, *, cutoff: float | None = None, structure: str = "grid"):
         if not isinstance(force, CPUDispatcher):
             raise TypeError(
                 "force must be a numba.njit-compiled function of the distance r [m] "
@@ -90,10 +96,18 @@ class PairForce(Force):
             )
         self.force = force
         self.cutoff = None if cutoff is None else check.positive("cutoff", cutoff)
-        self._grid = None if cutoff is None else UniformGrid(self.cutoff)
+        structure = check.choice("structure", structure, STRUCTURES)
+        if cutoff is None:
+            self._index = None
+        elif structure == "grid":
+            self._index = spatial_index(structure, cell_size=self.cutoff)
+        else:
+            self._index = spatial_index(structure)
+        self.structure = structure
 
     def __repr__(self) -> str:
-        return f"PairForce({getattr(self.force, '__name__', 'force')}, cutoff={self.cutoff})"
+        name = getattr(self.force, "__name__", "force")
+        return f"PairForce({name}, cutoff={self.cutoff}, structure={self.structure!r})"
 
     def accumulate(self, store, position, velocity, time, out) -> None:
         check_buffers(position, out)
@@ -106,7 +120,7 @@ class PairForce(Force):
             if self.cutoff is None:
                 every_pair(*rows, *out)
             else:
-                lists = self._grid.build(np.stack(rows)).neighbors(self.cutoff)
+                lists = self._index.build(np.stack(rows)).neighbors(self.cutoff)
                 neighbours(*rows, lists.offsets, lists.indices, *out)
 
 

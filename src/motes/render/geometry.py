@@ -205,6 +205,50 @@ class Sphere:
         return TriangleSet(positions, unit.astype(np.float32), colors, faces, self.surface)
 
 
+class Spheres:
+    """Many spheres at once (grains, marbles, debris): one icosphere per centre, drawn as
+    one mesh with exact sphere normals.
+
+    Parameters
+    ----------
+    centers : (n, 3) array_like
+        Centres [m].
+    radii : (n,) array_like or float
+        Radii [m], >= 0.
+    colors : (n, 3) array_like or colour
+        Linear RGB albedo per sphere, or one colour.
+    subdivisions : int
+        Icosphere level in [0, 3] per sphere (1: 80 triangles).
+    material : Material, optional
+    """
+
+    def __init__(self, centers, radii, *, colors=DEFAULT_COLOR, subdivisions: int = 1,
+                 material: Material | None = None):  # fmt: skip
+        self.centers = check.points("centers", centers, min_rows=0)
+        n = len(self.centers)
+        radii = np.broadcast_to(np.asarray(radii, dtype=np.float64), (n,))
+        if not np.all(np.isfinite(radii)) or np.any(radii < 0):
+            raise ValueError("radii must be finite and >= 0")
+        self.radii = radii
+        self.subdivisions = check.integer("subdivisions", subdivisions, low=0)
+        if self.subdivisions > 3:
+            raise ValueError(f"subdivisions must be <= 3, got {subdivisions}")
+        if isinstance(colors, str) or np.ndim(colors) == 1:
+            self.colors = np.broadcast_to(rgb("colors", colors), (n, 3))
+        else:
+            self.colors = _vertex_colors("colors", colors, n)
+        self.surface = surface_row(material, flat=False)
+
+    def triangles(self, camera: Camera) -> TriangleSet:
+        unit, faces = icosphere(self.subdivisions)
+        n, v = len(self.centers), len(unit)
+        positions = (self.centers[:, None, :] + self.radii[:, None, None] * unit).reshape(-1, 3)
+        normals = np.broadcast_to(unit.astype(np.float32), (n, v, 3)).reshape(-1, 3)
+        colors = np.repeat(np.asarray(self.colors, np.float32), v, axis=0)
+        all_faces = faces[None, :, :] + (v * np.arange(n, dtype=np.int32))[:, None, None]
+        return TriangleSet(positions, normals, colors, all_faces.reshape(-1, 3), self.surface)
+
+
 class Capsule:
     """A capsule: every point within ``radius`` of the segment from ``a`` to ``b``.
 
@@ -489,7 +533,7 @@ def draw_geometry(
     for i, obj in enumerate(objects):
         if isinstance(obj, Lines):
             line_sets.append(obj)
-        elif isinstance(obj, (Ground, Sphere, Capsule, Box, Mesh)):
+        elif isinstance(obj, (Ground, Sphere, Spheres, Capsule, Box, Mesh)):
             sets.append(obj.triangles(camera))
         else:
             raise TypeError(

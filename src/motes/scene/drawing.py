@@ -12,7 +12,7 @@ from ..render.metaballs import GridError, Metaballs
 from ..render.renderer import Renderer, background_from
 from ..render.shading import AmbientLight, DirectionalLight, Material, default_lights
 from ..render.sprites import SpriteStyle
-from .looks import ParticleLook, SceneObject, SurfaceLook
+from .looks import ParticleLook, SceneObject, SpheresLook, SurfaceLook
 from .schema import SceneError, key_name
 
 
@@ -35,11 +35,14 @@ class SceneRenderer:
         self.styles = {
             name: _style(look, f"system.{name}.render")
             for name, look in shown.items()
-            if look.surface is None
+            if look.surface is None and look.spheres is None
         }
         self.surfaces = {
             name: _Surface(look.surface) for name, look in shown.items() if look.surface
         }
+        self.surfaces.update(
+            {name: _Spheres(look.spheres) for name, look in shown.items() if look.spheres}
+        )
 
     @property
     def resolution(self) -> tuple[int, int]:
@@ -97,6 +100,29 @@ class _Surface:
 
 
 _GREY = (0.7, 0.7, 0.7)
+
+
+class _Spheres:
+    """A system's particles as shaded spheres of their radius (``size``): grains,
+    marbles, debris."""
+
+    def __init__(self, look: SpheresLook):
+        self.look = look
+        self.material = Material(specular=look.specular, shininess=64.0)
+
+    def drawables(self, system) -> list:
+        if len(system) == 0:
+            return []
+        radius = system["size"] if system.store.has("size") else 0.05
+        colors = self.look.color
+        if colors is None:
+            colors = system["color"][:, :3] if system.store.has("color") else _GREY
+        return [
+            geometry.Spheres(
+                system["position"], radius, colors=colors,
+                subdivisions=self.look.subdivisions, material=self.material,
+            )
+        ]  # fmt: skip
 
 
 def _lights(lights):

@@ -23,10 +23,19 @@ class SurfaceLook:
 
 
 @dataclass
+class SpheresLook:
+    """A system drawn as shaded spheres of the particles' radius (``kind = "spheres"``)."""
+
+    subdivisions: int = 1  # icosphere level per particle
+    specular: float = 0.4
+    color: tuple | None = None  # None: each particle's colour (grey without colours)
+
+
+@dataclass
 class ParticleLook:
     """How one system's particles are drawn (the ``[system.render]`` table)."""
 
-    kind: str = "sprite"  # "sprite", "point" or "surface"
+    kind: str = "sprite"  # "sprite", "point", "surface" or "spheres"
     blend: str = "additive"  # "additive" or "alpha"
     softness: float = 0.0  # [m]; 0 = hard depth test
     shutter: float = 0.0  # [s]; > 0 draws motion-blur streaks
@@ -34,6 +43,7 @@ class ParticleLook:
     texture: Path | None = None
     visible: bool = True
     surface: SurfaceLook | None = None  # kind "surface"
+    spheres: SpheresLook | None = None  # kind "spheres"
 
 
 @dataclass

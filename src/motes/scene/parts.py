@@ -16,6 +16,7 @@ from .. import colliders, emit, forces, life
 from ..emit import shapes
 from ..integrate import Integrator
 from ..life.events import KINDS
+from ..spatial.index import STRUCTURES
 from .schema import (
     SceneError,
     Table,
@@ -188,7 +189,9 @@ def rate(value, path, camera):
     t = Table(value, path)
     kind = t.get("type", one_of("per_second", "per_frame", "burst"))
     if kind == "per_second":
-        result = build(path, emit.PerSecond, t.get("rate", number(0.0)))
+        result = build(
+            path, emit.PerSecond, t.get("rate", number(0.0)), stop=t.get("stop", number(0.0), None)
+        )
     elif kind == "per_frame":
         result = build(
             path,
@@ -307,6 +310,7 @@ _FORCES = {
         t.get("epsilon", positive()),
         t.get("sigma", positive()),
         t.get("cutoff", positive(), None),
+        t.get("structure", one_of(*STRUCTURES), "grid"),
     ),
     "curl_noise": lambda t: build(
         t.path,
@@ -330,8 +334,10 @@ def _summation(t: Table) -> dict:
     }
 
 
-def _lennard_jones(epsilon, sigma, cutoff):
-    return forces.PairForce(forces.lennard_jones(epsilon, sigma), cutoff=cutoff)
+def _lennard_jones(epsilon, sigma, cutoff, structure):
+    return forces.PairForce(
+        forces.lennard_jones(epsilon, sigma), cutoff=cutoff, structure=structure
+    )
 
 
 def force(table: Table):
@@ -479,6 +485,22 @@ _MODIFIERS = {
         t.path, life.DistanceFrom, t.get("center", vector()), t.get("distance", positive())
     ),
 }
+
+
+def particle_collisions(table: Table) -> colliders.ParticleCollisions:
+    """A ``[system.collisions]`` table: the system's particles collide with each other
+    (gravity, for the inelastic threshold and stacking, is the system's)."""
+    made = build(
+        table.path,
+        colliders.ParticleCollisions,
+        restitution=table.get("restitution", number(0.0, 1.0), 0.3),
+        friction=table.get("friction", number(0.0, 10.0), 0.5),
+        iterations=table.get("iterations", integer(1, 1000), 4),
+        structure=table.get("structure", one_of(*STRUCTURES), "grid"),
+        stacking=table.get("stacking", number(0.0, 20.0), 3.0),
+    )
+    table.finish()
+    return made
 
 
 def modifier(table: Table):

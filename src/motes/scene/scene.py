@@ -24,7 +24,7 @@ from ..system import ParticleSystem
 from . import parts
 from .bodies import Body, BuildContext, build_body
 from .camera_path import CameraPath
-from .looks import ParticleLook, RenderSettings, SceneObject, SurfaceLook
+from .looks import ParticleLook, RenderSettings, SceneObject, SpheresLook, SurfaceLook
 from .overrides import apply_overrides
 from .schema import (
     SceneError,
@@ -380,7 +380,16 @@ def _look(table: Table | None, base: Path) -> ParticleLook:
     look = ParticleLook()
     if table is None:
         return look
-    look.kind = table.get("kind", one_of("sprite", "point", "surface"), "sprite")
+    look.kind = table.get("kind", one_of("sprite", "point", "surface", "spheres"), "sprite")
+    if look.kind == "spheres":
+        look.spheres = SpheresLook(
+            subdivisions=table.get("subdivisions", integer(0, 3), 1),
+            specular=table.get("specular", number(0.0), 0.4),
+            color=table.get("color", color, None),
+        )
+        look.visible = table.get("visible", boolean, True)
+        table.finish()
+        return look
     if look.kind == "surface":
         radius = table.get("radius", positive(), 0.1)
         look.surface = SurfaceLook(
@@ -526,6 +535,9 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         if t.get("shared_colliders", boolean, True):
             for c, path in zip(shared, shared_paths, strict=True):
                 build(path, system.add, c)
+        collisions = t.table("collisions", optional=True)
+        if collisions is not None:
+            system.add(parts.particle_collisions(collisions))
         pending_children.extend((system, c) for c in t.tables("child"))
         pending_contacts.extend((system_name, system, c) for c in t.tables("contact"))
         looks[system_name] = _look(t.table("render", optional=True), base)

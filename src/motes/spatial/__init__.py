@@ -1,7 +1,21 @@
-"""Spatial queries over particles: a uniform grid for fixed-radius neighbours, an octree
-built from Morton codes (Barnes–Hut)."""
+"""Spatial queries over particles, behind one interface (:mod:`.index`): a uniform grid,
+an octree built from Morton codes (also Barnes–Hut's), and a k-d tree (a binary space
+partition). Each answers neighbours within a radius (CSR lists), k nearest neighbours
+and pairs within a distance."""
 
-from .grid import NeighborOverflow, Neighbors, UniformGrid
+from .grid import UniformGrid
+from .index import STRUCTURES, SpatialIndex, spatial_index
+from .kdtree import KDTree
+from .neighbors import NeighborOverflow, Neighbors
 from .octree import Octree
 
-__all__ = ["NeighborOverflow", "Neighbors", "Octree", "UniformGrid"]
+__all__ = [
+    "STRUCTURES",
+    "KDTree",
+    "NeighborOverflow",
+    "Neighbors",
+    "Octree",
+    "SpatialIndex",
+    "UniformGrid",
+    "spatial_index",
+]

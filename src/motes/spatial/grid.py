@@ -16,65 +16,15 @@ into it (:attr:`UniformGrid.order`) reads neighbours from nearby memory.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from .. import _validate
 from . import kernels
+from .neighbors import NeighborOverflow, Neighbors, sorted_pairs
 
 #: Cells are enlarged by this relative margin so that two points at most ``cell_size``
 #: apart never fall two cells apart through the round-off of ``(x - origin) / cell``.
 _MARGIN = 1e-6
-
-
-class NeighborOverflow(RuntimeError):
-    """A point has more neighbours than the fixed capacity holds (see ``grow``)."""
-
-    def __init__(self, most: int, capacity: int):
-        super().__init__(
-            f"a point has {most} neighbours but capacity is {capacity}: pass a larger "
-            "capacity or grow=True"
-        )
-        self.most = most
-        self.capacity = capacity
-
-
-@dataclass(frozen=True)
-class Neighbors:
-    """Neighbour lists in compressed sparse row (CSR) form.
-
-    The neighbours of row ``i`` are ``indices[offsets[i]:offsets[i + 1]]``.
-
-    Attributes
-    ----------
-    offsets : ndarray, int64, shape (rows + 1,)
-        Start of each row's neighbours in ``indices``.
-    indices : ndarray, int32, shape (offsets[-1],)
-        Neighbour indices (point indices, or sorted slots when asked for slots).
-    """
-
-    offsets: np.ndarray
-    indices: np.ndarray
-
-    @property
-    def counts(self) -> np.ndarray:
-        """Neighbours per row, int64, shape (rows,)."""
-        return np.diff(self.offsets)
-
-    def row(self, i: int) -> np.ndarray:
-        """Neighbours of row ``i``."""
-        return self.indices[self.offsets[i] : self.offsets[i + 1]]
-
-    def pairs(self) -> np.ndarray:
-        """Each unordered pair once as ``(i, j)`` with ``i < j``, shape (pairs, 2), int64.
-
-        Only meaningful for a self query (rows and entries index the same points). Rows
-        in order, and within a row the neighbours in the order the grid visits them.
-        """
-        rows = np.repeat(np.arange(self.offsets.shape[0] - 1), self.counts)
-        keep = self.indices > rows
-        return np.stack([rows[keep], self.indices[keep].astype(np.int64)], axis=1)
 
 
 class UniformGrid:
@@ -176,6 +126,56 @@ class UniformGrid:
         """Neighbours (point indices) within ``radius`` [m] of other ``points`` (3, m)."""
         q = _rows("points", points)
         return self._query(q, radius, False, False, grow)
+
+    def knn(self, points, k: int, *, exclude_self: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """The ``k`` nearest grid points of each query point, nearest first.
+
+        Any ``k`` works whatever the cell size; the search grows shells of cells until
+        the ``k``-th distance is settled, so it is fast when a few cells hold ``k``
+        points and slow on strongly clustered points (use a tree there).
+
+        Parameters
+        ----------
+        points : array of shape (3, m)
+            Query points [m] (compared in the grid's float32 coordinates).
+        k : int
+            1 <= k <= number of points (less one with ``exclude_self``).
+        exclude_self : bool
+            The queries are the grid's own points, in their original order: leave each
+            point out of its own list.
+
+        Returns
+        -------
+        distance : float64 (m, k)
+            Distances [m], ascending.
+        index : int64 (m, k)
+            Point indices.
+        """
+        q = _rows("points", points)
+        most = self.count - (1 if exclude_self else 0)
+        k = _validate.integer("k", k, low=1)
+        if k > most:
+            raise ValueError(f"k must be <= {most} (the points available), got {k}")
+        if exclude_self and q.shape[1] != self.count:
+            raise ValueError("exclude_self needs the grid's own points as the queries")
+        self_slot = np.full(1, -1, np.int64)
+        if exclude_self:
+            self_slot = np.empty(self.count, np.int64)
+            self_slot[self.order] = np.arange(self.count)
+        distance = np.empty((q.shape[1], k))
+        index = np.empty((q.shape[1], k), np.int64)
+        kernels.knn_shells(
+            *q, *self.sorted_positions, self.order, self.cell_start, self.origin,
+            1.0 / self.cell, self.dims, self_slot, exclude_self, distance, index,
+        )  # fmt: skip
+        np.sqrt(distance, out=distance)
+        return distance, index
+
+    def pairs(self, distance: float) -> np.ndarray:
+        """Every unordered pair of points at most ``distance`` [m] apart (any distance;
+        fastest up to ``cell_size``), as ``(i, j)`` rows with ``i < j``, sorted; shape
+        (pairs, 2), int64."""
+        return sorted_pairs(self.neighbors(distance))
 
     # -- internals -------------------------------------------------------------------
     def _query(self, q, radius, exclude_self, slots, grow) -> Neighbors:

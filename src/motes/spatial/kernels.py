@@ -166,3 +166,103 @@ def compact_rows(buffer, count, row_of, entry_map, offsets, out):
             base = offsets[r]
             for k in range(count[b]):
                 out[base + k] = entry_map[buffer[b, k]]
+
+
+@device
+def _outside_gap(p, cell, reach, origin, edge, size):
+    """Distance [m] from ``p`` to the nearer face, along one axis, of the block of cells
+    ``[cell - reach, cell + reach]``; infinite on a side where the block reaches the
+    grid's end (no point lies beyond it). Negative when ``p`` is outside the block."""
+    gap = np.inf
+    if cell - reach > 0:
+        gap = p - (origin + (cell - reach) * edge)
+    if cell + reach < size - 1:
+        gap = min(gap, origin + (cell + reach + 1) * edge - p)
+    return gap
+
+
+@device
+def _offer(sx, sy, sz, px, py, pz, first, end, own, best, slot):
+    """Insert the slots ``[first, end)`` nearer than the current k-th into the sorted
+    lists ``best`` (squared distances) and ``slot``."""
+    k = best.shape[0]
+    for s in range(first, end):
+        if s == own:
+            continue
+        dx = np.float64(sx[s]) - px
+        dy = np.float64(sy[s]) - py
+        dz = np.float64(sz[s]) - pz
+        d2 = dx * dx + dy * dy + dz * dz
+        if d2 < best[k - 1]:
+            j = k - 1
+            while j > 0 and best[j - 1] > d2:
+                best[j] = best[j - 1]
+                slot[j] = slot[j - 1]
+                j -= 1
+            best[j] = d2
+            slot[j] = s
+
+
+@parallel_kernel
+def knn_shells(
+    qx, qy, qz, sx, sy, sz, order, cell_start, origin, inv_cell, dims, self_slot,
+    exclude_self, out_d2, out_index,
+):  # fmt: skip
+    """The ``k`` nearest points of each query (``k = out_d2.shape[1]``), nearest first.
+
+    Cells are visited in shells of growing Chebyshev radius around the query's cell;
+    after each shell the search stops once the k-th distance is within the distance to
+    the nearest cell not yet visited (or when the shells cover the grid). On clustered
+    points a shell can hold a whole cluster or nothing, which is where a tree wins.
+    """
+    m = qx.shape[0]
+    k = out_d2.shape[1]
+    nx, ny, nz = dims[0], dims[1], dims[2]
+    edge = 1.0 / inv_cell
+    # A point within 1e-6 cells of a face may sit in the cell across it (round-off of
+    # its key): the stopping test allows for that.
+    slack = 1e-6 * edge
+    widest = max(nx, max(ny, nz))
+    for block in prange(block_count(m)):
+        start, stop = block_bounds(block, m)
+        best = np.empty(k)
+        slot = np.empty(k, np.int64)
+        for q in range(start, stop):
+            px, py, pz = np.float64(qx[q]), np.float64(qy[q]), np.float64(qz[q])
+            own = self_slot[q] if exclude_self else -1
+            for j in range(k):
+                best[j] = np.inf
+                slot[j] = -1
+            cx = cell_coordinate(px, origin[0], inv_cell, nx)
+            cy = cell_coordinate(py, origin[1], inv_cell, ny)
+            cz = cell_coordinate(pz, origin[2], inv_cell, nz)
+            for r in range(widest):
+                for z in range(max(cz - r, 0), min(cz + r, nz - 1) + 1):
+                    for y in range(max(cy - r, 0), min(cy + r, ny - 1) + 1):
+                        row = nx * (y + ny * z)
+                        if abs(z - cz) == r or abs(y - cy) == r:  # a whole run of x
+                            x0, x1 = max(cx - r, 0), min(cx + r, nx - 1)
+                            first, end = cell_start[row + x0], cell_start[row + x1 + 1]
+                            _offer(sx, sy, sz, px, py, pz, first, end, own, best, slot)
+                        else:  # inside the shell's y-z square: its two x ends only
+                            if cx - r >= 0:
+                                first, end = cell_start[row + cx - r], cell_start[row + cx - r + 1]
+                                _offer(sx, sy, sz, px, py, pz, first, end, own, best, slot)
+                            if cx + r <= nx - 1:
+                                first, end = cell_start[row + cx + r], cell_start[row + cx + r + 1]
+                                _offer(sx, sy, sz, px, py, pz, first, end, own, best, slot)
+                gap = min(
+                    _outside_gap(px, cx, r, origin[0], edge, nx),
+                    min(
+                        _outside_gap(py, cy, r, origin[1], edge, ny),
+                        _outside_gap(pz, cz, r, origin[2], edge, nz),
+                    ),
+                )
+                if gap == np.inf:
+                    break
+                gap -= slack
+                if gap > 0.0 and best[k - 1] <= gap * gap:
+                    break
+            for j in range(k):
+                out_d2[q, j] = best[j]
+                out_index[q, j] = order[slot[j]]

@@ -29,101 +29,9 @@ import numba
 import numpy as np
 
 from .. import _validate
-from .._jit import block_bounds, block_count, parallel_kernel, serial_kernel
-
-#: Bits per coordinate in a Morton code (3 x 21 = 63 bits: a positive int64).
-BITS = 21
-#: Keys per block of the radix sort's histograms and scatter.
-SORT_BLOCK = 1 << 16
-_RADIX = 8
-_DIGITS = 1 << _RADIX
-
-
-@numba.njit(inline="always")
-def _spread(v):
-    """The 21 low bits of ``v`` moved to bits 0, 3, 6, ... 60."""
-    v &= 0x1FFFFF
-    v = (v | (v << 32)) & 0x1F00000000FFFF
-    v = (v | (v << 16)) & 0x1F0000FF0000FF
-    v = (v | (v << 8)) & 0x100F00F00F00F00F
-    v = (v | (v << 4)) & 0x10C30C30C30C30C3
-    v = (v | (v << 2)) & 0x1249249249249249
-    return v
-
-
-@parallel_kernel
-def morton_codes(x, y, z, origin, scale, out):
-    """``out[i]``: Morton code of point ``i`` quantised as ``(p - origin) * scale``.
-
-    ``scale`` maps the bounding cube onto ``[0, 2^21)``; coordinates are clamped into it.
-    """
-    n = x.shape[0]
-    top = (1 << BITS) - 1
-    for i in numba.prange(n):
-        qx = min(max(np.int64((x[i] - origin[0]) * scale), 0), top)
-        qy = min(max(np.int64((y[i] - origin[1]) * scale), 0), top)
-        qz = min(max(np.int64((z[i] - origin[2]) * scale), 0), top)
-        out[i] = _spread(qx) | (_spread(qy) << 1) | (_spread(qz) << 2)
-
-
-@parallel_kernel
-def _histograms(keys, shift, counts):
-    n = keys.shape[0]
-    for block in numba.prange(counts.shape[0]):
-        row = counts[block]
-        row[:] = 0
-        for i in range(block * SORT_BLOCK, min(n, (block + 1) * SORT_BLOCK)):
-            row[(keys[i] >> shift) & (_DIGITS - 1)] += 1
-
-
-@serial_kernel
-def _offsets(counts, n):
-    """Exclusive scan, digit-major then block; returns whether the pass can be skipped."""
-    total = 0
-    for d in range(_DIGITS):
-        for block in range(counts.shape[0]):
-            c = counts[block, d]
-            counts[block, d] = total
-            total += c
-            if c == n:
-                return True
-    return False
-
-
-@parallel_kernel
-def _scatter(keys, index, shift, offsets, keys_out, index_out):
-    n = keys.shape[0]
-    for block in numba.prange(offsets.shape[0]):
-        row = offsets[block]
-        for i in range(block * SORT_BLOCK, min(n, (block + 1) * SORT_BLOCK)):
-            d = (keys[i] >> shift) & (_DIGITS - 1)
-            slot = row[d]
-            row[d] = slot + 1
-            keys_out[slot] = keys[i]
-            index_out[slot] = index[i]
-
-
-def radix_sort(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Stable sort of non-negative int64 ``keys`` (n,): ``(sorted keys, order)``.
-
-    ``order[s]`` is the index of the key in slot ``s`` (int64).
-    """
-    n = keys.shape[0]
-    keys = np.array(keys, dtype=np.int64)  # a copy: the passes reuse it
-    index = np.arange(n, dtype=np.int64)
-    if n < 2:
-        return keys, index
-    counts = np.empty(((n + SORT_BLOCK - 1) // SORT_BLOCK, _DIGITS), np.int64)
-    keys_out, index_out = np.empty_like(keys), np.empty_like(index)
-    top = int(keys.max()).bit_length()
-    for shift in range(0, top, _RADIX):
-        _histograms(keys, shift, counts)
-        if _offsets(counts, n):
-            continue
-        _scatter(keys, index, shift, counts, keys_out, index_out)
-        keys, keys_out = keys_out, keys
-        index, index_out = index_out, index
-    return keys, index
+from .._jit import parallel_kernel, serial_kernel
+from .morton import BITS, morton_codes, radix_sort
+from .tree import SpatialTree
 
 
 @numba.njit(inline="always")
@@ -212,7 +120,7 @@ def _cells(codes, start, count, origin, unit, center, size):
         center[2, k] = origin[2] + unit * qz + 0.5 * edge
 
 
-class Octree:
+class Octree(SpatialTree):
     """An octree over ``n`` points, nodes in breadth-first order (root 0).
 
     Parameters
@@ -274,6 +182,7 @@ class Octree:
         #: The points in sorted order, shape (3, n), their dtype.
         self.sorted_points = pos[:, self.order]
         self._nodes(n, unit)
+        self._built()
         return self
 
     def _nodes(self, n: int, unit: float) -> None:
@@ -309,141 +218,3 @@ class Octree:
             self.codes, self.node_start, self.node_count, self.origin, unit,
             self.node_center, self.node_size,
         )  # fmt: skip
-
-    @property
-    def count(self) -> int:
-        """Number of points."""
-        return int(self.node_count[0])
-
-    def knn(self, points, k: int, *, exclude_self: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """The ``k`` nearest tree points of each query point, nearest first.
-
-        Parameters
-        ----------
-        points : array of shape (3, m)
-            Query points [m].
-        k : int
-            Neighbours per query, 1 <= k <= number of tree points (less one with
-            ``exclude_self``).
-        exclude_self : bool
-            The queries are the tree's own points, in their original order: leave each
-            point out of its own list.
-
-        Returns
-        -------
-        distance : float64 (m, k)
-            Euclidean distances [m], ascending (computed in float64).
-        index : int64 (m, k)
-            Indices of the neighbours among the points given to :meth:`build`.
-        """
-        q = np.asarray(points)
-        if q.ndim != 2 or q.shape[0] != 3:
-            raise ValueError(f"points must have shape (3, m), got {q.shape}")
-        most = self.count - (1 if exclude_self else 0)
-        k = _validate.integer("k", k, low=1)
-        if k > most:
-            raise ValueError(f"k must be <= {most} (the points available), got {k}")
-        if exclude_self and q.shape[1] != self.count:
-            raise ValueError("exclude_self needs the tree's own points as the queries")
-        qx, qy, qz = (np.ascontiguousarray(r, dtype=np.float64) for r in q)
-        sx, sy, sz = (np.ascontiguousarray(r, dtype=np.float64) for r in self.sorted_points)
-        slot_of = np.empty(self.count, np.int64)
-        slot_of[self.order] = np.arange(self.count)
-        self_slot = slot_of if exclude_self else np.full(1, -1, np.int64)
-        distance = np.empty((q.shape[1], k))
-        index = np.empty((q.shape[1], k), np.int64)
-        slack = self.edge / (1 << BITS)
-        # Queries in Morton order: consecutive queries descend the same branches.
-        codes = np.empty(q.shape[1], np.int64)
-        morton_codes(qx, qy, qz, self.origin, 1.0 / slack, codes)
-        queries = radix_sort(codes)[1]
-        _knn_kernel(
-            qx, qy, qz, queries, sx, sy, sz, self.order, self.node_start, self.node_count,
-            self.node_child, self.node_children, self.node_center, self.node_size / 2 + slack,
-            self_slot, exclude_self, distance, index,
-        )  # fmt: skip
-        np.sqrt(distance, out=distance)
-        return distance, index
-
-    def leaves(self) -> np.ndarray:
-        """Indices of the leaf nodes, in breadth-first order (int64)."""
-        return np.flatnonzero(self.node_child < 0)
-
-
-@numba.njit(inline="always")
-def _box_distance2(px, py, pz, center, half, k):
-    dx = max(abs(px - center[0, k]) - half[k], 0.0)
-    dy = max(abs(py - center[1, k]) - half[k], 0.0)
-    dz = max(abs(pz - center[2, k]) - half[k], 0.0)
-    return dx * dx + dy * dy + dz * dz
-
-
-@parallel_kernel
-def _knn_kernel(
-    qx, qy, qz, queries, sx, sy, sz, order, start, count, child, children, center, half,
-    self_slot, exclude_self, out_d2, out_index,
-):  # fmt: skip
-    """Best-first descent with a sorted list of the ``k`` nearest so far.
-
-    A node is skipped when its cell (grown by the codes' quantum) is farther than the
-    current ``k``-th distance; children are visited nearest cell first. Squared
-    distances in float64; ties keep the point met first.
-    """
-    m = qx.shape[0]
-    k = out_d2.shape[1]
-    for block in numba.prange(block_count(m)):
-        lo, hi = block_bounds(block, m)
-        stack = np.empty(8 * 22, np.int64)
-        near = np.empty(8)
-        kids = np.empty(8, np.int64)
-        best = np.empty(k)
-        slot = np.empty(k, np.int64)
-        for t in range(lo, hi):
-            i = queries[t]
-            px, py, pz = qx[i], qy[i], qz[i]
-            own = self_slot[i] if exclude_self else -1
-            for j in range(k):
-                best[j] = np.inf
-                slot[j] = -1
-            top = 1
-            stack[0] = 0
-            while top > 0:
-                top -= 1
-                node = stack[top]
-                if _box_distance2(px, py, pz, center, half, node) > best[k - 1]:
-                    continue
-                if child[node] < 0:
-                    for s in range(start[node], start[node] + count[node]):
-                        if s == own:
-                            continue
-                        dx = sx[s] - px
-                        dy = sy[s] - py
-                        dz = sz[s] - pz
-                        d2 = dx * dx + dy * dy + dz * dz
-                        if d2 < best[k - 1]:
-                            j = k - 1
-                            while j > 0 and best[j - 1] > d2:
-                                best[j] = best[j - 1]
-                                slot[j] = slot[j - 1]
-                                j -= 1
-                            best[j] = d2
-                            slot[j] = s
-                    continue
-                # Push the children farthest first, so the nearest is taken next.
-                n_kids = children[node]
-                for c in range(n_kids):
-                    kid = child[node] + c
-                    d = _box_distance2(px, py, pz, center, half, kid)
-                    j = c
-                    while j > 0 and near[j - 1] < d:
-                        near[j] = near[j - 1]
-                        kids[j] = kids[j - 1]
-                        j -= 1
-                    near[j] = d
-                    kids[j] = kid
-                for c in range(n_kids):
-                    stack[top] = kids[c]
-                    top += 1
-            for j in range(k):
-                out_d2[i, j] = best[j]
-                out_index[i, j] = order[slot[j]]
