@@ -290,23 +290,23 @@ def _exit(planes, rest_l, u, r):
     return float(np.min((r - s[ok]) / along[ok])) if ok.any() else -1.0
 
 
-def body_contacts(x, q, radius, built, rotation, friction):
-    """Twin of ``collide.bodies.body_contacts`` for the arrays of a built World.
+def body_contacts(x, q, radius, model, rotation, friction):
+    """Twin of ``rigid.body_contacts.body_contacts`` for a world's ``WorldModel``.
 
     ``x``, ``q`` are (n, 3); ``rotation`` (b, 3, 3) the bodies' rotations (held fixed).
     Returns the new x.
     """
     x = x.copy()
-    start, owner_particles = built["body_start"], built["body_particles"]
-    fraction, planes_all = built["fraction"], built["planes"]
-    plane_start, group = built["plane_start"], built["group"]
-    inv_m = built["body_inv_mass"]
-    edge_start, edges = built["edge_start"], built["edges"]
+    start, owner_particles = model.body_start, model.body_particles
+    fraction, planes_all = model.body_fraction, model.body_planes
+    plane_start, group = model.body_plane_start, model.body_group
+    inv_m = model.body_inv_mass
+    edge_start, edges = model.body_edge_start, model.body_edges
     nb = len(start) - 1
     parts = [owner_particles[start[b] : start[b + 1]] for b in range(nb)]
     fracs = [fraction[start[b] : start[b + 1]] for b in range(nb)]
     planes = [planes_all[plane_start[b] : plane_start[b + 1]] for b in range(nb)]
-    iinv = [rotation[b] @ built["inertia_inv"][b] @ rotation[b].T for b in range(nb)]
+    iinv = [rotation[b] @ model.body_inertia_inv[b] @ rotation[b].T for b in range(nb)]
     centre = [fracs[b] @ x[parts[b]] for b in range(nb)]
     before = [fracs[b] @ q[parts[b]] for b in range(nb)]
     lo = [np.min(x[parts[b]] - radius[parts[b], None], axis=0) for b in range(nb)]

@@ -209,8 +209,8 @@ def test_body_contact_kernel_matches_the_twin():
         mr.BodyShape.convex_hull(rng.normal(scale=0.3, size=(9, 3)) + np.array([0.5, -0.3, 0.4]))
     )
     w.add_body(mr.BodyShape.box((0.0, -0.35, 0.0), (1.4, 0.1, 0.2), 1.0))  # edge across a box
-    built = w._build()
-    x = np.ascontiguousarray(w._position).copy()
+    model = w.model
+    x = w.state.particle_position.copy()
     q = x + rng.normal(scale=0.01, size=x.shape)
     _, rotation = w.transforms()
     rotation = np.ascontiguousarray(rotation)
@@ -219,24 +219,24 @@ def test_body_contact_kernel_matches_the_twin():
     body_contacts(
         *ours,
         *q,
-        built["inv_mass"],
+        model.particle_inv_mass,
         w.radius,
-        built["body_start"],
-        built["body_particles"],
-        built["fraction"],
-        built["rest"],
-        built["body_inv_mass"],
-        built["inertia_inv"],
-        built["plane_start"],
-        built["planes"],
-        built["group"],
+        model.body_start,
+        model.body_particles,
+        model.body_fraction,
+        model.body_rest,
+        model.body_inv_mass,
+        model.body_inertia_inv,
+        model.body_plane_start,
+        model.body_planes,
+        model.body_group,
         rotation.copy(),
-        built["edge_start"],
-        built["edges"],
+        model.body_edge_start,
+        model.body_edges,
         0.4,
         hits,
     )
-    theirs = naive.body_contacts(x.T, q.T, w.radius, built, rotation, 0.4)
+    theirs = naive.body_contacts(x.T, q.T, w.radius, model, rotation, 0.4)
     assert hits.sum() > 5 and np.abs(ours.T - x.T).max() > 1e-3  # real contacts
     # Rotations refined in the kernel start converged (SVD); round-off of O(1) sums.
     assert_allclose(ours.T, theirs, rtol=0, atol=1e-9)

@@ -70,7 +70,7 @@ def test_a_store_without_size_has_the_attribute_default_radius():
     [
         (make_cloth, lambda c: (c.position, c.velocity)),
         (make_hair, lambda h: (h.position, h.velocity)),
-        (make_world, lambda w: (w._position, None)),
+        (make_world, lambda w: (w.state.particle_position, None)),
         (make_fluid, lambda f: (f.state.positions, f.state.velocities)),
     ],
 )
@@ -92,7 +92,7 @@ def test_world_velocities_are_the_verlet_difference():
     state = world.particle_state()
     np.testing.assert_allclose(state.velocities, world.velocity.T)
     np.testing.assert_array_equal(state.radius[0], 0.1)
-    assert state["previous"] is world._previous
+    assert state["previous"] is world.state.particle_previous
 
 
 def test_fluid_ids_follow_particles_through_the_solver_permutation():
