@@ -26,7 +26,7 @@ def test_roots_move_rigidly_with_the_head_and_strands_stay_outside_it():
     np.testing.assert_allclose(hair.strands()[:, :2], root_local @ r.T + c, atol=1e-12)
     distance = np.linalg.norm(hair.position.T - c, axis=1)
     # Every free particle is pushed out to the scalp plus the hair's thickness.
-    assert distance[hair._free].min() >= head.radius + hair.thickness - 1e-12
+    assert distance[hair.model.particle_free].min() >= head.radius + hair.thickness - 1e-12
     # Stretch limited to 2 % by the Provot passes (ordered from the roots, so one pass
     # limits a strand), then the scalp pushes particles out, which can stretch a
     # segment again (measured 0.03 %).

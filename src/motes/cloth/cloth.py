@@ -1,82 +1,46 @@
 """Cloth: a mass-spring triangle mesh stepped by the implicit integrator.
 
-One step (``Cloth.step``):
+:class:`Cloth` is the façade: it builds a :class:`~motes.cloth.model.ClothModel` (what
+stays fixed), holds a :class:`~motes.cloth.state.ClothState` (positions, velocities,
+time, the solver's warm start) and a :class:`~motes.cloth.state.ClothControl` (pins and
+handles), and steps them with :func:`motes.cloth.stepping.step`:
 
 1. explicit forces: gravity, the wind's per-triangle drag and lift, and added forces
    (:meth:`Cloth.add_force`; those with a Jacobian go to the implicit solve);
-2. the integrator: implicit Euler (Baraff & Witkin 1998) with the springs and the air
-   damping implicit, pins and moving handles as constraint filters, or an explicit
-   scheme for comparison;
+2. the integrator: implicit Euler (Baraff & Witkin 1998) with the springs (the families
+   and those of :meth:`Cloth.add_springs`) and the air damping implicit, pins and moving
+   handles as constraint filters, or an explicit scheme for comparison;
 3. strain limiting (Provot 1995): over-stretched structural springs are shortened;
-4. collisions with planes, spheres and boxes (push-out, restitution, friction).
+4. collisions with planes, spheres, boxes (push-out, restitution, friction) and
+   triangle meshes.
 
-Not handled: self-collision (the cloth passes through itself) and triangle-mesh
-colliders.
+Not handled: self-collision (the cloth passes through itself).
 """
 
 from __future__ import annotations
-
-from dataclasses import dataclass
-from enum import StrEnum
 
 import numpy as np
 
 from .. import _memory
 from .. import _validate as check
-from .._jit import threads_for
-from ..collide import contact
-from ..collide.colliders import Collider, pack
-from ..collide.contact import project_contacts
-from ..collide.mesh import TriangleMeshCollider
-from ..collide.swept import sweep_contacts
-from ..forces.apply import add_forces, check_force, force_state, split_implicit
-from ..forces.springs import Springs
-from ..geometry.layout import grown
-from ..integrate.implicit import SERIAL_BELOW, ConstraintFilter, ImplicitEuler, SolveReport
+from ..integrate.implicit import ConstraintFilter, ImplicitEuler, SolveReport
 from ..state import Field, ParticleState
-from . import topology
+from . import stepping, topology
 from .drivers import Airflow, Keyframes
-from .kernels import (
-    aero_triangle_kernel,
-    collide_kernel,
-    gather_triangles_kernel,
+from .model import (
+    BENDING,
+    BYTES_PER_VERTEX,
+    SHEAR,
+    STRUCTURAL,
+    ClothModel,
+    Scheme,
+    SpringFamily,
+    build_model,
+    spring_pairs,
 )
-from .strain import StrainLimiter
+from .state import ClothControl, ClothState, Handle
 
-#: Memory per vertex [bytes] of a cloth that steps (measured peak at 90,000 and
-#: 202,500 vertices of a grid: about 2,000 B): positions, springs three ways (topology,
-#: forces, per-spring blocks of the implicit solve), triangles and the solver's vectors.
-BYTES_PER_VERTEX = 2048
-
-
-class Scheme(StrEnum):
-    """How a cloth advances in time."""
-
-    IMPLICIT_EULER = "implicit_euler"  #: Baraff & Witkin 1998
-    EXPLICIT_EULER = "explicit_euler"  #: x += h v0, v += h a (for comparison)
-    SEMI_IMPLICIT_EULER = "semi_implicit_euler"  #: v += h a, x += h v1 (symplectic)
-
-
-@dataclass(frozen=True)
-class SpringFamily:
-    """Stiffness ``k_s`` [N/m] and damping ``k_d`` [N s/m] of one family of springs."""
-
-    stiffness: float
-    damping: float = 0.0
-
-    def __post_init__(self):
-        check.non_negative("stiffness", self.stiffness)
-        check.non_negative("damping", self.damping)
-
-
-def _family(name: str, value) -> SpringFamily:
-    if isinstance(value, SpringFamily):
-        return value
-    try:
-        k, kd = (value, 0.0) if np.ndim(value) == 0 else value
-        return SpringFamily(float(k), float(kd))
-    except (TypeError, ValueError) as error:
-        raise ValueError(f"{name} must be a stiffness or (stiffness, damping): {error}") from None
+__all__ = ["BYTES_PER_VERTEX", "Cloth", "Scheme", "SpringFamily"]
 
 
 class Cloth:
@@ -122,6 +86,9 @@ class Cloth:
     forces : sequence of Force or FieldForce
         More forces on the vertices (radial fields, vortices, curl noise, callbacks,
         drag...), evaluated at the cloth's state every step; see :meth:`add_force`.
+
+    The parameters make :attr:`model` (:func:`~motes.cloth.model.build_model` checks
+    them); the positions start at ``vertices`` at rest, time 0 (:attr:`state`).
     """
 
     def __init__(
@@ -131,9 +98,9 @@ class Cloth:
         *,
         springs: topology.Topology | None = None,
         density: float = 0.2,
-        structural=SpringFamily(200.0, 0.2),
-        shear=SpringFamily(50.0, 0.05),
-        bending=SpringFamily(5.0, 0.01),
+        structural=STRUCTURAL,
+        shear=SHEAR,
+        bending=BENDING,
         gravity=(0.0, -9.81, 0.0),
         air_damping: float = 0.1,
         wind: Airflow | None = None,
@@ -145,93 +112,63 @@ class Cloth:
         solver: ImplicitEuler | None = None,
         forces=(),
     ):
-        vertices = check.points("vertices", vertices)
-        _memory.check(
-            f"vertices ({len(vertices)})",
-            len(vertices) * BYTES_PER_VERTEX,
-            per=f"about {BYTES_PER_VERTEX} B per vertex",
+        self._model = build_model(
+            vertices,
+            faces,
+            springs=springs,
+            density=density,
+            structural=structural,
+            shear=shear,
+            bending=bending,
+            gravity=gravity,
+            air_damping=air_damping,
+            wind=wind,
+            colliders=colliders,
+            thickness=thickness,
+            strain_limit=strain_limit,
+            strain_iterations=strain_iterations,
+            scheme=scheme,
+            solver=solver,
+            forces=forces,
         )
-        faces = np.asarray(faces)
-        if faces.ndim != 2 or faces.shape[1] != 3 or faces.dtype.kind not in "iu":
-            raise ValueError(f"faces must be an (f, 3) integer array, got {faces.shape}")
-        if faces.size == 0 or faces.min() < 0 or faces.max() >= len(vertices):
-            raise ValueError(
-                f"faces must be non-empty and index vertices in [0, {len(vertices) - 1}]"
-            )
-        faces = faces.astype(np.int64)
-        self.topology = springs if springs is not None else topology.from_triangles(vertices, faces)
-        self.faces = faces
-        self.n = len(vertices)
-        self.density = check.positive("density", density)
-        self.mass = topology.vertex_masses(vertices, faces, self.density)
-        if np.any(self.mass <= 0):
-            raise ValueError("every vertex must belong to a triangle of non-zero area")
-        families = {
-            "structural": _family("structural", structural),
-            "shear": _family("shear", shear),
-            "bending": _family("bending", bending),
-        }
-        self.families = families
-        pairs, rest, ks, kd = [], [], [], []
-        for name, family in families.items():
-            p = getattr(self.topology, name)
-            if len(p) == 0 or (family.stiffness == 0 and family.damping == 0):
-                continue
-            pairs.append(p)
-            rest.append(np.linalg.norm(vertices[p[:, 0]] - vertices[p[:, 1]], axis=1))
-            ks.append(np.full(len(p), family.stiffness))
-            kd.append(np.full(len(p), family.damping))
-        self.springs = Springs(
-            np.concatenate(pairs), np.concatenate(rest), np.concatenate(ks), np.concatenate(kd)
-        )
-        self._structural = np.ascontiguousarray(self.topology.structural, dtype=np.int64)
-        self._structural_rest = np.linalg.norm(
-            vertices[self._structural[:, 0]] - vertices[self._structural[:, 1]], axis=1
-        )
-        self._tri_first, self._tris = topology.vertex_triangles(faces, self.n)
-
-        self.gravity = check.vector("gravity", gravity)
-        self.air_damping = check.non_negative("air_damping", air_damping)
-        if wind is not None and not isinstance(wind, Airflow):
-            raise TypeError(f"wind must be a Airflow, got {wind!r}")
-        self.wind = wind
-        self.colliders = list(colliders)
-        for c in self.colliders:
-            if not isinstance(c, Collider):
-                raise TypeError(f"colliders must hold Collider objects, got {c!r}")
-        # Planes, spheres and boxes go through the particle kernel's geometry; triangle
-        # meshes through the rigid world's gridded closest-point projection.
-        self._shapes = [c for c in self.colliders if not isinstance(c, TriangleMeshCollider)]
-        self._meshes = [c for c in self.colliders if isinstance(c, TriangleMeshCollider)]
-        self.thickness = check.non_negative("thickness", thickness)
-        self.strain_limit = (
-            None if strain_limit is None else check.positive("strain_limit", strain_limit)
-        )
-        self.strain_iterations = check.integer("strain_iterations", strain_iterations, low=1)
-        self._limiter = (
-            None
-            if strain_limit is None
-            else StrainLimiter(
-                self._structural, self._structural_rest, strain_limit, strain_iterations
-            )
-        )
-        try:
-            self.scheme = Scheme(scheme)
-        except ValueError:
-            allowed = ", ".join(repr(s.value) for s in Scheme)
-            raise ValueError(f"scheme must be one of {allowed}, got {scheme!r}") from None
-        self.solver = solver if solver is not None else ImplicitEuler(tolerance=1e-2)
-        #: Forces added to springs, gravity and wind (:meth:`add_force`).
-        self.forces = [check_force(f) for f in forces]
-
-        #: Positions [m] and velocities [m/s], float64 (3, n): the implicit solve's precision.
-        self.position = np.ascontiguousarray(vertices.T)
-        self.velocity = np.zeros((3, self.n))
-        self.time = 0.0
-        self.constraints = ConstraintFilter(self.n)
-        self._handles: list[tuple] = []
-        self._tri_force = np.empty((3, len(faces)))
+        n = self._model.vertex_count
+        rest = check.points("vertices", vertices)
+        self._state = ClothState(np.ascontiguousarray(rest.T), np.zeros((3, n)))
+        self._control = ClothControl.free(n)
+        #: The latest implicit solve's report (None before one).
         self.last_report: SolveReport | None = None
+
+    # -- model, state, control ------------------------------------------------------
+    @property
+    def model(self) -> ClothModel:
+        """What stays fixed while stepping (:class:`~motes.cloth.model.ClothModel`);
+        :meth:`add_force` and :meth:`add_springs` replace it."""
+        return self._model
+
+    @property
+    def state(self) -> ClothState:
+        """The live state (:class:`~motes.cloth.state.ClothState`): positions,
+        velocities, time and the solver's warm start. ``cloth.state.copy()`` saves it;
+        ``cloth.state = saved`` rewinds to a copy of ``saved`` (same vertex count), and
+        the steps from there repeat bit for bit (pins and handles are not part of it)."""
+        return self._state
+
+    @state.setter
+    def state(self, value: ClothState) -> None:
+        if not isinstance(value, ClothState):
+            raise TypeError(f"state must be a ClothState, got {type(value).__name__}")
+        n = self.n
+        if value.particle_count != n:
+            raise ValueError(
+                f"state must hold this cloth's {n} vertices, got {value.particle_count}"
+            )
+        value.check_count("state", n)
+        self._state = value.copy()
+
+    @property
+    def control(self) -> ClothControl:
+        """Pins and handles (:class:`~motes.cloth.state.ClothControl`)."""
+        return self._control
 
     # -- construction helpers -------------------------------------------------------
     @classmethod
@@ -297,7 +234,7 @@ class Cloth:
     # -- pins and handles -----------------------------------------------------------
     def pin(self, indices) -> None:
         """Hold ``indices`` where they are."""
-        self.constraints.pin(indices)
+        self._control.constraints.pin(indices)
 
     def move(self, indices, path: Keyframes, *, weights=None) -> None:
         """Make ``indices`` a handle: from now on particle ``i`` follows its current
@@ -312,44 +249,35 @@ class Cloth:
         w = np.ones(idx.size) if weights is None else np.asarray(weights, dtype=np.float64)
         if w.shape != idx.shape or not np.all(np.isfinite(w)):
             raise ValueError(f"weights must be finite with shape {idx.shape}, got {w.shape}")
-        self.constraints.pin(idx)
+        self._control.constraints.pin(idx)
         anchor = self.position[:, idx] - w * path(self.time)[:, None]
-        self._handles.append((idx, anchor, path, w))
+        self._control.handles.append(Handle(idx, anchor, path, w))
 
     def release(self, indices) -> None:
         """Free pinned or handled particles."""
         idx = np.atleast_1d(np.asarray(indices, dtype=np.int64))
-        self.constraints.release(idx)
-        self._handles = [
-            (i[keep], a[:, keep], p, w[keep])
-            for i, a, p, w in self._handles
-            if (keep := ~np.isin(i, idx)).any()
+        control = self._control
+        control.constraints.release(idx)
+        control.handles[:] = [
+            Handle(h.indices[keep], h.anchor[:, keep], h.path, h.weights[keep])
+            for h in control.handles
+            if (keep := ~np.isin(h.indices, idx)).any()
         ]
 
     @property
     def pinned(self) -> np.ndarray:
         """Bool (n,): particles held by a pin or a handle."""
-        return self.constraints.constrained
+        return self._control.constraints.constrained
 
-    # -- forces ---------------------------------------------------------------------
+    @property
+    def constraints(self) -> ConstraintFilter:
+        """The pins' and handles' constraint filter (:attr:`control`'s)."""
+        return self._control.constraints
+
+    # -- forces and springs ---------------------------------------------------------
     def external_force(self) -> np.ndarray:
         """Gravity and wind on each particle [N], (3, n), at the current state."""
-        f = self.mass[None, :] * self.gravity[:, None]
-        if self.wind is not None:
-            w = self.wind
-            aero_triangle_kernel(
-                *self.position,
-                *self.velocity,
-                self.faces,
-                w.velocity,
-                w.packed(),
-                self.time,
-                w.frequencies,
-                w.phases,
-                self._tri_force,
-            )
-            gather_triangles_kernel(self._tri_force, self._tri_first, self._tris, *f)
-        return f
+        return stepping.external_force(self._model, self._state)
 
     def add_force(self, force):
         """Make ``force`` (a :class:`~motes.forces.Force` or ``FieldForce``) act on the
@@ -360,8 +288,34 @@ class Cloth:
         springs) are implicit; vortices, curl noise and callbacks are explicit
         (:func:`motes.forces.apply.split_implicit`).
         """
-        self.forces.append(check_force(force))
+        self._model = self._model.with_force(force)
         return force
+
+    def add_springs(self, pairs, stiffness, damping=0.0, rest_length=None) -> None:
+        """Join chosen vertices by springs, from the next step on: a seam stitched shut,
+        a tether, a drawstring.
+
+        They join :attr:`springs`, so the implicit solve treats them implicitly with
+        their Jacobian, like the cloth's own springs (strain limiting does not touch
+        them).
+
+        Parameters
+        ----------
+        pairs : (k, 2) array_like of int
+            Vertex indices ``(a, b)`` in [0, n - 1], ``a != b``.
+        stiffness : float or (k,) array_like
+            ``k_s`` >= 0 [N/m].
+        damping : float or (k,) array_like
+            ``k_d`` >= 0 [N s/m], along the spring.
+        rest_length : float or (k,) array_like, optional
+            Finite, >= 0 [m]; 0 makes a stitch that pulls the two vertices together.
+            Default: their distance now.
+        """
+        pairs = spring_pairs(pairs, self.n)
+        if rest_length is None:
+            x = self.position
+            rest_length = np.linalg.norm(x[:, pairs[:, 0]] - x[:, pairs[:, 1]], axis=0)
+        self._model = self._model.with_springs(pairs, stiffness, damping, rest_length)
 
     def force(self) -> np.ndarray:
         """Total force on each particle [N], (3, n): springs, gravity, wind, air damping
@@ -369,104 +323,156 @@ class Cloth:
 
         Pins and handles excluded (their reaction is whatever balances this).
         """
-        f = self.external_force() - self.air_damping * self.mass * self.velocity
-        self.springs.accumulate(None, self.position, self.velocity, self.time, f)
-        return add_forces(self.forces, self.position, self.velocity, self.mass, self.time, f)
+        return stepping.total_force(self._model, self._state)
 
     def energy(self) -> float:
         """Kinetic + spring + gravitational potential energy [J]."""
-        kinetic = 0.5 * float(np.sum(self.mass * self.velocity**2))
-        gravity = -float(np.sum(self.mass * (self.gravity @ self.position)))
-        return kinetic + self.springs.energy(self.position) + gravity
+        return stepping.energy(self._model, self._state)
 
     # -- stepping -------------------------------------------------------------------
     def step(self, dt: float) -> None:
         """Advance by ``dt`` seconds."""
-        h = check.positive("dt", dt)
-        with threads_for(self.n, SERIAL_BELOW):
-            self._step(h)
+        report = stepping.step(self._model, self._state, self._control, dt)
+        if report is not None:
+            self.last_report = report
 
     def _step(self, h: float) -> None:
-        for idx, anchor, path, w in self._handles:
-            target = anchor + w * path(self.time + h)[:, None]
-            self.constraints.velocity[:, idx] = (target - self.position[:, idx]) / h
-        external = self.external_force()
-        start = self.position.copy() if self._meshes else None
-        if self.scheme == Scheme.IMPLICIT_EULER:
-            others, drag = split_implicit(self.forces, self.velocity, self.mass, external)
-            self.last_report = self.solver.step(
-                self.position,
-                self.velocity,
-                self.mass,
-                h,
-                forces=[self.springs, *others],
-                external=external,
-                damping=self.air_damping * self.mass + drag,
-                constraints=self.constraints,
-                store=force_state(self.position, self.velocity, self.mass),
-                time=self.time,
-            )
-        else:
-            add_forces(self.forces, self.position, self.velocity, self.mass, self.time, external)
-            self._explicit(h, external)
-        free = ~self.pinned
-        if self.strain_limit is not None:
-            self._limit_strain(h, free)
-        if self._shapes:
-            self._collide(h, free)
-        if self._meshes:
-            self._collide_meshes(h, free, start)
-        self.time += h
-
-    def _explicit(self, h: float, external: np.ndarray) -> None:
-        f = external - self.air_damping * self.mass * self.velocity
-        self.springs.accumulate(None, self.position, self.velocity, self.time, f)
-        a = f / self.mass
-        held = self.pinned
-        target = self.constraints.velocity
-        if self.scheme == Scheme.EXPLICIT_EULER:
-            v_move = np.where(held, target, self.velocity)
-            self.velocity = np.where(held, target, self.velocity + h * a)
-        else:
-            self.velocity = np.where(held, target, self.velocity + h * a)
-            v_move = self.velocity
-        self.position += h * v_move
-
-    def _limit_strain(self, h: float, free: np.ndarray) -> None:
-        """Provot 1995: shorten structural springs stretched past the limit, ordered from
-        the pins out, and give the velocities the same change / h
-        (:class:`~motes.cloth.strain.StrainLimiter`)."""
-        self._limiter.apply(self.position, self.velocity, self.mass, ~free, h)
+        """:meth:`step` on the current thread count (no one-thread rule)."""
+        report = stepping.advance(self._model, self._state, self._control, h)
+        if report is not None:
+            self.last_report = report
 
     @property
     def strain_passes(self) -> int:
         """Strain-limiting passes the latest step took (0 without a limit)."""
-        return 0 if self._limiter is None else self._limiter.passes
+        limiter = self._model.strain_limiter
+        return 0 if limiter is None else limiter.passes
 
-    def _collide_meshes(self, h: float, free: np.ndarray, start: np.ndarray) -> None:
-        """Triangle meshes are thin shells, which a particle can cross within one step:
-        each path ``start -> position`` is swept against them first (stopping at the first
-        hit and reflecting with the mesh's restitution,
-        :func:`motes.collide.swept.sweep_contacts`), then what still lies within
-        ``thickness`` is projected out with depth friction
-        (:func:`motes.collide.contact.project_contacts`). A particle that touched takes
-        the velocity of its corrected travel."""
-        table, tri, cell_start, cell_tris = contact.pack(
-            self._meshes, [contact.Detection.PRIORI] * len(self._meshes)
-        )
-        previous = start.copy()  # rewritten by the sweep for particles that hit
-        hits = np.zeros(self.n, dtype=np.int64)
-        radius = np.full(self.n, self.thickness)
-        movable = free.astype(np.float64)
-        mesh_data = (table, tri, cell_start, cell_tris, hits)
-        sweep_contacts(*self.position, *previous, radius, movable, *mesh_data)
-        project_contacts(*self.position, *previous, radius, movable, *mesh_data)
-        touched = hits > 0
-        self.velocity[:, touched] = (self.position[:, touched] - previous[:, touched]) / h
+    # -- state ----------------------------------------------------------------------
+    @property
+    def position(self) -> np.ndarray:
+        """Positions [m], float64 (3, n): the state's array (assignable)."""
+        return self._state.positions
 
-    def _collide(self, h: float, free: np.ndarray) -> None:
-        table, _ = pack(self._shapes)
-        collide_kernel(*self.position, *self.velocity, free, grown(table, self.thickness), h)
+    @position.setter
+    def position(self, value) -> None:
+        self._state.positions = self._rows("position", value)
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """Velocities [m/s], float64 (3, n): the state's array (assignable)."""
+        return self._state.velocities
+
+    @velocity.setter
+    def velocity(self, value) -> None:
+        self._state.velocities = self._rows("velocity", value)
+
+    def _rows(self, name: str, value) -> np.ndarray:
+        rows = np.ascontiguousarray(value, dtype=np.float64)
+        if rows.shape != (3, self.n):
+            raise ValueError(f"{name} must have shape (3, {self.n}), got {rows.shape}")
+        return rows
+
+    @property
+    def time(self) -> float:
+        """Simulation time [s]."""
+        return self._state.time
+
+    @time.setter
+    def time(self, value: float) -> None:
+        self._state.time = float(value)
+
+    # -- the model's parameters -----------------------------------------------------
+    @property
+    def n(self) -> int:
+        """Number of vertices."""
+        return self._model.vertex_count
+
+    @property
+    def faces(self) -> np.ndarray:
+        """Triangles, int64 (f, 3)."""
+        return self._model.faces
+
+    @property
+    def mass(self) -> np.ndarray:
+        """Vertex masses [kg], (n,). Assigning one replaces the model."""
+        return self._model.vertex_mass
+
+    @mass.setter
+    def mass(self, value) -> None:
+        self._model = self._model.with_vertex_mass(value)
+
+    @property
+    def springs(self):
+        """Every spring (:class:`~motes.forces.springs.Springs`): the families', then
+        those of :meth:`add_springs`."""
+        return self._model.springs
+
+    @property
+    def topology(self) -> topology.Topology:
+        """The spring families' pairs."""
+        return self._model.topology
+
+    @property
+    def families(self) -> dict[str, SpringFamily]:
+        """Structural, shear and bending :class:`SpringFamily` by name (a new dict)."""
+        m = self._model
+        return {"structural": m.structural, "shear": m.shear, "bending": m.bending}
+
+    @property
+    def density(self) -> float:
+        """Areal density [kg/m²]."""
+        return self._model.density
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """[m/s²], (3,)."""
+        return self._model.gravity
+
+    @property
+    def air_damping(self) -> float:
+        """Drag per unit mass [1/s]."""
+        return self._model.air_damping
+
+    @property
+    def wind(self) -> Airflow | None:
+        """Aerodynamic drag and lift, or None."""
+        return self._model.wind
+
+    @property
+    def colliders(self) -> tuple:
+        """Planes, spheres, boxes and triangle meshes."""
+        return self._model.colliders
+
+    @property
+    def thickness(self) -> float:
+        """Distance [m] kept from collider surfaces."""
+        return self._model.thickness
+
+    @property
+    def strain_limit(self) -> float | None:
+        """Largest stretch of structural springs, or None."""
+        return self._model.strain_limit
+
+    @property
+    def strain_iterations(self) -> int:
+        """Most strain-limiting passes per step."""
+        return self._model.strain_iterations
+
+    @property
+    def scheme(self) -> Scheme:
+        """Time integration."""
+        return self._model.scheme
+
+    @property
+    def solver(self) -> ImplicitEuler:
+        """Settings of the implicit solve."""
+        return self._model.solver
+
+    @property
+    def forces(self) -> tuple:
+        """Forces added to springs, gravity and wind (:meth:`add_force`)."""
+        return self._model.forces
 
     # -- reading --------------------------------------------------------------------
     @property
@@ -485,7 +491,7 @@ class Cloth:
         """
         fields = {
             "mass": Field(self.mass, "kg", "vertex mass"),
-            "pinned": Field(self.pinned.copy(), "", "held by a pin or a handle"),
+            "pinned": Field(self.pinned, "", "held by a pin or a handle"),
         }
         radius = np.full(self.n, self.thickness)
         return ParticleState(np.arange(self.n), self.position, self.velocity, radius, fields)
@@ -502,9 +508,10 @@ class Cloth:
 
     def stretch(self) -> np.ndarray:
         """Relative stretch ``|d|/s - 1`` of each structural spring."""
-        s = self._structural
+        m = self._model
+        s = m.structural_pairs
         d = self.position[:, s[:, 0]] - self.position[:, s[:, 1]]
-        return np.linalg.norm(d, axis=0) / self._structural_rest - 1.0
+        return np.linalg.norm(d, axis=0) / m.structural_rest_length - 1.0
 
     def __repr__(self) -> str:
         return (

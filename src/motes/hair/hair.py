@@ -11,123 +11,25 @@ The first two particles of each strand are the follicle: they move rigidly with 
 (constraint-filtered, exactly), which fixes the root direction. The rest collide with
 the head sphere (push-out with friction) and with any extra colliders. A step is one
 implicit Euler solve (Baraff & Witkin 1998) for all strands at once, then a Provot
-stretch limit on the stretch springs, then collisions.
+stretch limit on the stretch springs, then collisions (:mod:`motes.hair.stepping`).
+
+:class:`Hair` is the façade over a :class:`~motes.hair.model.HairModel` (what stays
+fixed), a :class:`~motes.hair.state.HairState` (positions, velocities, time, the
+solver's warm start) and a :class:`~motes.hair.state.HairControl` (the follicles).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .. import _memory
-from .. import _validate as check
-from .._jit import threads_for
-from ..cloth.cloth import BYTES_PER_VERTEX
-from ..cloth.drivers import Keyframes
-from ..cloth.kernels import collide_kernel
-from ..cloth.strain import StrainLimiter
-from ..collide.colliders import Collider, Sphere, pack
-from ..forces.apply import check_force, force_state, split_implicit
-from ..geometry.layout import grown
-from ..integrate.implicit import SERIAL_BELOW, ConstraintFilter, ImplicitEuler, SolveReport
+from ..integrate.implicit import ConstraintFilter, ImplicitEuler, SolveReport
 from ..state import Field, ParticleState
-from .bending import StencilSprings, angle_bending
+from . import stepping
+from .head import Head, euler_matrix, growth_directions, scalp_directions
+from .model import HairModel, build_model
+from .state import HairControl, HairState
 
-
-def euler_matrix(angles_deg) -> np.ndarray:
-    """Rotation ``R_y(yaw) R_x(pitch) R_z(roll)`` from (yaw, pitch, roll) [degrees]:
-    yaw turns the head about the vertical, pitch nods it."""
-    yaw, pitch, roll = np.radians(np.asarray(angles_deg, dtype=np.float64))
-    cy, sy, cp, sp, cr, sr = (
-        np.cos(yaw),
-        np.sin(yaw),
-        np.cos(pitch),
-        np.sin(pitch),
-        np.cos(roll),
-        np.sin(roll),
-    )
-    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-    rx = np.array([[1, 0, 0], [0, cp, -sp], [0, sp, cp]])
-    rz = np.array([[cr, -sr, 0], [sr, cr, 0], [0, 0, 1]])
-    return ry @ rx @ rz
-
-
-class Head:
-    """A sphere that translates and rotates over time.
-
-    Parameters
-    ----------
-    center : (3,) array_like
-        Centre at rest [m].
-    radius : float
-        > 0 [m].
-    translation : Keyframes, optional
-        Offset of the centre [m] over time.
-    rotation : Keyframes, optional
-        (yaw, pitch, roll) [degrees] over time (see :func:`euler_matrix`).
-    friction : float
-        Friction of hair on the scalp, in [0, 1] (velocity scaling).
-    """
-
-    def __init__(
-        self,
-        center=(0.0, 0.0, 0.0),
-        radius: float = 0.1,
-        *,
-        translation=None,
-        rotation=None,
-        friction: float = 0.3,
-    ):
-        self.center = check.vector("center", center)
-        self.radius = check.positive("radius", radius)
-        for name, value in (("translation", translation), ("rotation", rotation)):
-            if value is not None and not isinstance(value, Keyframes):
-                raise TypeError(f"{name} must be Keyframes, got {value!r}")
-        self.translation = translation
-        self.rotation = rotation
-        self.friction = check.unit_interval("friction", friction)
-
-    def pose(self, time: float) -> tuple[np.ndarray, np.ndarray]:
-        """Rotation (3, 3) and centre (3,) [m] at ``time`` [s]."""
-        r = np.eye(3) if self.rotation is None else euler_matrix(self.rotation(time))
-        c = self.center + (0.0 if self.translation is None else self.translation(time))
-        return r, c
-
-    def __repr__(self) -> str:
-        return f"Head(center={self.center.tolist()}, radius={self.radius})"
-
-
-def scalp_directions(count: int, *, seed: int = 0, coverage: float = 0.55) -> np.ndarray:
-    """``count`` unit vectors spread over the top, back and sides of a head (y up, face
-    +z).
-
-    Uniform on the sphere cap ``y >= 1 - 2·coverage`` inside a hairline: above the
-    forehead (``z < 0.55`` where ``y > 0.5``), the temples (``z < 0.15`` where
-    ``y > 0.15``) and the back (``z < -0.25``); the face stays bare. Drawn from ``seed``.
-    """
-    rng = np.random.default_rng(check.integer("seed", seed, low=0))
-    out = np.empty((0, 3))
-    while len(out) < count:
-        y = rng.uniform(1 - 2 * coverage, 1.0, 2 * count)
-        phi = rng.uniform(0, 2 * np.pi, 2 * count)
-        r = np.sqrt(1 - y * y)
-        d = np.stack([r * np.cos(phi), y, r * np.sin(phi)], 1)
-        z = d[:, 2]
-        scalp = ((y > 0.5) & (z < 0.55)) | ((y > 0.15) & (z < 0.15)) | (z < -0.25)
-        out = np.concatenate([out, d[scalp]])
-    return out[:count]
-
-
-def growth_directions(roots: np.ndarray, comb, lift: float) -> np.ndarray:
-    """Unit directions in which strands leave the scalp at ``roots`` (k, 3) (unit,
-    from the head's centre): ``comb`` projected onto the scalp's tangent plane, tilted
-    out of it by ``lift`` (``t + lift·n``, normalised; radial where ``comb`` is normal
-    to the scalp)."""
-    c = np.asarray(comb, dtype=np.float64)
-    tangent = c[None, :] - (roots @ c)[:, None] * roots
-    size = np.linalg.norm(tangent, axis=1, keepdims=True)
-    along = np.where(size > 1e-6, tangent / np.maximum(size, 1e-300), 0.0)
-    g = along + lift * roots
-    return g / np.linalg.norm(g, axis=1, keepdims=True)
+__all__ = ["Hair", "Head", "euler_matrix", "growth_directions", "scalp_directions"]
 
 
 class Hair:
@@ -176,6 +78,9 @@ class Hair:
         For the default root directions.
     forces : sequence of Force or FieldForce
         More forces on the particles, evaluated every step; see :meth:`add_force`.
+
+    The parameters make :attr:`model` (:func:`~motes.hair.model.build_model` checks
+    them); the strands start straight, at rest, on the head at time 0 (:attr:`state`).
     """
 
     def __init__(
@@ -201,93 +106,63 @@ class Hair:
         seed: int = 0,
         forces=(),
     ):
-        if not isinstance(head, Head):
-            raise TypeError(f"head must be a Head, got {head!r}")
-        self.head = head
-        s = check.integer("strands", strands, low=1)
-        p = check.integer("particles", particles, low=3)
-        # The implicit solve holds per particle about what a cloth's holds per vertex.
-        _memory.check(
-            f"strands × particles = {s} × {p}",
-            s * p * BYTES_PER_VERTEX,
-            per=f"about {BYTES_PER_VERTEX} B per particle",
+        self._model = build_model(
+            head,
+            strands=strands,
+            particles=particles,
+            length=length,
+            length_variation=length_variation,
+            directions=directions,
+            comb=comb,
+            lift=lift,
+            mass=mass,
+            stretch=stretch,
+            bending=bending,
+            stretch_limit=stretch_limit,
+            air_damping=air_damping,
+            gravity=gravity,
+            thickness=thickness,
+            colliders=colliders,
+            solver=solver,
+            seed=seed,
+            forces=forces,
         )
-        self.length = check.positive("length", length)
-        if directions is None:
-            directions = scalp_directions(s, seed=seed)
-        d = check.points("directions", directions)
-        if len(d) != s:
-            raise ValueError(f"directions must have one row per strand ({s}), got {len(d)}")
-        norm = np.linalg.norm(d, axis=1, keepdims=True)
-        if np.any(norm == 0):
-            raise ValueError("directions must be non-zero")
-        d = d / norm
-        self.lift = check.non_negative("lift", lift)
-        if comb is None:
-            growth = d
-        else:
-            growth = growth_directions(d, check.unit_vector("comb", comb), self.lift)
-        self.strand_count, self.per_strand = s, p
-        self.n = s * p
-        self.particle_mass = check.positive("mass", mass)
-        self.mass = np.full(self.n, self.particle_mass)
-        ks, kd = (check.non_negative(f"stretch[{k}]", v) for k, v in enumerate(stretch))
-        kb, kbd = (check.non_negative(f"bending[{k}]", v) for k, v in enumerate(bending))
-        self.stretch_limit = (
-            None if stretch_limit is None else check.positive("stretch_limit", stretch_limit)
-        )
-        self.air_damping = check.non_negative("air_damping", air_damping)
-        self.gravity = check.vector("gravity", gravity)
-        self.thickness = check.non_negative("thickness", thickness)
-        self.colliders = list(colliders)
-        for c in self.colliders:
-            if not isinstance(c, Collider):
-                raise TypeError(f"colliders must hold Collider objects, got {c!r}")
-        self.solver = solver if solver is not None else ImplicitEuler()
-        #: Forces added to the springs and gravity (:meth:`add_force`).
-        self.forces = [check_force(f) for f in forces]
-
-        # Rest shape: straight from the root along the growth direction, head's frame.
-        variation = check.real(
-            "length_variation", length_variation, low=0.0, high=1.0, high_open=True
-        )
-        u = np.random.default_rng([check.integer("seed", seed, low=0), 1]).random(s)
-        self.lengths = self.length * (1.0 - variation * u)  #: per strand [m], (strands,)
-        segment = self.lengths / (p - 1)  # (s,)
-        k = np.arange(p)
-        local = (
-            head.radius * d[:, None, :] + (segment[:, None] * k)[:, :, None] * growth[:, None, :]
-        )
-        self._local = local.reshape(-1, 3)
-        index = np.arange(self.n).reshape(s, p)
-        stretch_pairs = np.stack([index[:, :-1].ravel(), index[:, 1:].ravel()], 1)
-        triples = np.stack([index[:, :-2].ravel(), index[:, 1:-1].ravel(), index[:, 2:].ravel()], 1)
-        b_pairs, b_rest, b_k, b_kd = angle_bending(triples, kb, kbd)
-        self.springs = StencilSprings(
-            np.concatenate([stretch_pairs, b_pairs]),
-            np.concatenate([np.repeat(segment, p - 1), b_rest]),
-            np.concatenate([np.full(len(stretch_pairs), ks), b_k]),
-            np.concatenate([np.full(len(stretch_pairs), kd), b_kd]),
-        )
-        self._limiter = (
-            None
-            if self.stretch_limit is None
-            else StrainLimiter(stretch_pairs, np.repeat(segment, p - 1), self.stretch_limit, 50)
-        )
-
-        self._roots = index[:, :2].ravel()
-        self._root_local = self._local[self._roots]
-        self.constraints = ConstraintFilter(self.n)
-        self.constraints.pin(self._roots)
-        self._free = np.ones(self.n, dtype=bool)
-        self._free[self._roots] = False
-        self.time = 0.0
-        r, c = head.pose(0.0)
-        #: Positions [m] and velocities [m/s], float64 (3, n); strand ``j`` is particles
-        #: ``j * per_strand`` to ``(j + 1) * per_strand - 1``, root first.
-        self.position = np.ascontiguousarray((self._local @ r.T + c).T)
-        self.velocity = np.zeros((3, self.n))
+        self._state = HairState.at_rest(self._model)
+        self._control = HairControl.follicles(self._model)
+        #: The latest implicit solve's report (None before one).
         self.last_report: SolveReport | None = None
+
+    # -- model, state, control ------------------------------------------------------
+    @property
+    def model(self) -> HairModel:
+        """What stays fixed while stepping (:class:`~motes.hair.model.HairModel`);
+        :meth:`add_force` replaces it."""
+        return self._model
+
+    @property
+    def state(self) -> HairState:
+        """The live state (:class:`~motes.hair.state.HairState`): positions,
+        velocities, time and the solver's warm start. ``hair.state.copy()`` saves it;
+        ``hair.state = saved`` rewinds to a copy of ``saved`` (same particle count), and
+        the steps from there repeat bit for bit."""
+        return self._state
+
+    @state.setter
+    def state(self, value: HairState) -> None:
+        if not isinstance(value, HairState):
+            raise TypeError(f"state must be a HairState, got {type(value).__name__}")
+        n = self.n
+        if value.particle_count != n:
+            raise ValueError(
+                f"state must hold this hair's {n} particles, got {value.particle_count}"
+            )
+        value.check_count("state", n)
+        self._state = value.copy()
+
+    @property
+    def control(self) -> HairControl:
+        """The follicles (:class:`~motes.hair.state.HairControl`)."""
+        return self._control
 
     def add_force(self, force):
         """Make ``force`` (a :class:`~motes.forces.Force` or ``FieldForce``) act on the
@@ -299,44 +174,148 @@ class Hair:
         (:func:`motes.forces.apply.split_implicit`). The follicles are held: forces on
         them go into the constraints' reaction.
         """
-        self.forces.append(check_force(force))
+        self._model = self._model.with_force(force)
         return force
 
     def step(self, dt: float) -> None:
         """Advance by ``dt`` seconds."""
-        h = check.positive("dt", dt)
-        with threads_for(self.n, SERIAL_BELOW):
-            self._step(h)
+        self.last_report = stepping.step(self._model, self._state, self._control, dt)
 
     def _step(self, h: float) -> None:
-        r, c = self.head.pose(self.time + h)
-        target = (self._root_local @ r.T + c).T
-        self.constraints.velocity[:, self._roots] = (target - self.position[:, self._roots]) / h
-        external = self.mass[None, :] * self.gravity[:, None]
-        others, drag = split_implicit(self.forces, self.velocity, self.mass, external)
-        self.last_report = self.solver.step(
-            self.position,
-            self.velocity,
-            self.mass,
-            h,
-            forces=[self.springs, *others],
-            external=external,
-            damping=self.air_damping * self.mass + drag,
-            constraints=self.constraints,
-            store=force_state(self.position, self.velocity, self.mass),
-            time=self.time,
-        )
-        if self._limiter is not None:
-            self._limiter.apply(self.position, self.velocity, self.mass, ~self._free, h)
-        scalp = Sphere(
-            c, self.head.radius + self.thickness, restitution=0.0, friction=self.head.friction
-        )
-        # The scalp sphere already includes the thickness; the other colliders grow by it.
-        table, _ = pack([scalp, *self.colliders])
-        table[1:] = grown(table[1:], self.thickness)
-        collide_kernel(*self.position, *self.velocity, self._free, table, h)
-        self.time += h
+        """:meth:`step` on the current thread count (no one-thread rule)."""
+        self.last_report = stepping.advance(self._model, self._state, self._control, h)
 
+    # -- state ----------------------------------------------------------------------
+    @property
+    def position(self) -> np.ndarray:
+        """Positions [m], float64 (3, n); strand ``j`` is particles ``j * per_strand``
+        to ``(j + 1) * per_strand - 1``, root first. The state's array (assignable)."""
+        return self._state.positions
+
+    @position.setter
+    def position(self, value) -> None:
+        self._state.positions = self._rows("position", value)
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """Velocities [m/s], float64 (3, n): the state's array (assignable)."""
+        return self._state.velocities
+
+    @velocity.setter
+    def velocity(self, value) -> None:
+        self._state.velocities = self._rows("velocity", value)
+
+    def _rows(self, name: str, value) -> np.ndarray:
+        rows = np.ascontiguousarray(value, dtype=np.float64)
+        if rows.shape != (3, self.n):
+            raise ValueError(f"{name} must have shape (3, {self.n}), got {rows.shape}")
+        return rows
+
+    @property
+    def time(self) -> float:
+        """Simulation time [s]."""
+        return self._state.time
+
+    @time.setter
+    def time(self, value: float) -> None:
+        self._state.time = float(value)
+
+    # -- the model's parameters -----------------------------------------------------
+    @property
+    def n(self) -> int:
+        """Number of particles."""
+        return self._model.particle_count
+
+    @property
+    def strand_count(self) -> int:
+        """Number of strands."""
+        return self._model.strand_count
+
+    @property
+    def per_strand(self) -> int:
+        """Particles per strand, the two root ones included."""
+        return self._model.particles_per_strand
+
+    @property
+    def head(self) -> Head:
+        """The head the strands grow on."""
+        return self._model.head
+
+    @property
+    def length(self) -> float:
+        """Nominal strand length [m]."""
+        return self._model.length
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """Length of each strand [m], (strands,)."""
+        return self._model.strand_length
+
+    @property
+    def lift(self) -> float:
+        """Tilt of the strands out of the scalp's tangent plane."""
+        return self._model.lift
+
+    @property
+    def particle_mass(self) -> float:
+        """Mass per particle [kg]."""
+        return float(self._model.particle_mass[0])
+
+    @property
+    def mass(self) -> np.ndarray:
+        """Particle masses [kg], (n,). Assigning one replaces the model."""
+        return self._model.particle_mass
+
+    @mass.setter
+    def mass(self, value) -> None:
+        self._model = self._model.with_particle_mass(value)
+
+    @property
+    def springs(self):
+        """Stretch springs and bending stencils (:class:`~motes.hair.bending.StencilSprings`)."""
+        return self._model.springs
+
+    @property
+    def stretch_limit(self) -> float | None:
+        """Largest relative stretch after each step, or None."""
+        return self._model.stretch_limit
+
+    @property
+    def air_damping(self) -> float:
+        """Drag per unit mass [1/s]."""
+        return self._model.air_damping
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """[m/s²], (3,)."""
+        return self._model.gravity
+
+    @property
+    def thickness(self) -> float:
+        """Distance [m] kept from the scalp and colliders."""
+        return self._model.thickness
+
+    @property
+    def colliders(self) -> tuple:
+        """Obstacles besides the head."""
+        return self._model.colliders
+
+    @property
+    def solver(self) -> ImplicitEuler:
+        """Settings of the implicit solve."""
+        return self._model.solver
+
+    @property
+    def forces(self) -> tuple:
+        """Forces added to the springs and gravity (:meth:`add_force`)."""
+        return self._model.forces
+
+    @property
+    def constraints(self) -> ConstraintFilter:
+        """The follicles' constraint filter (:attr:`control`'s)."""
+        return self._control.constraints
+
+    # -- reading --------------------------------------------------------------------
     def particle_state(self) -> ParticleState:
         """The particles as a :class:`~motes.state.ParticleState`.
 

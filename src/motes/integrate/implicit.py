@@ -277,6 +277,25 @@ class ImplicitEuler:
     def __repr__(self) -> str:
         return f"ImplicitEuler(tolerance={self.tolerance}, max_iterations={self.max_iterations})"
 
+    @property
+    def previous_change(self) -> np.ndarray | None:
+        """``Δv`` [m/s], (n, 3), of the latest successful step, where the next solve
+        starts (with ``warm_start``); None before the first.
+
+        It belongs to the state of what the solver steps, not to its settings: the
+        cloth and hair states carry it and set it back before each step, so that
+        restoring a state reproduces the run bit for bit.
+        """
+        return self._previous
+
+    @previous_change.setter
+    def previous_change(self, value: np.ndarray | None) -> None:
+        if value is not None:
+            value = np.asarray(value, dtype=np.float64)
+            if value.ndim != 2 or value.shape[1] != 3:
+                raise ValueError(f"previous_change must have shape (n, 3), got {value.shape}")
+        self._previous = value
+
     def step(
         self,
         position: np.ndarray,

@@ -178,6 +178,44 @@ def _pins(table: Table, cloth: Cloth, grid: bool) -> None:
         cloth.move(idx, path, weights=weights)
 
 
+def _vertex(cloth: Cloth, grid: bool):
+    """A reader of one vertex: ``[row, column]`` of a grid cloth (negative from the
+    end), a vertex index of a mesh cloth."""
+    if not grid:
+        return integer(0, cloth.n - 1)
+    ny, nx = cloth.grid_shape
+
+    def read(value, path):
+        inside = f"a grid vertex [row, column] inside {ny} x {nx} (negative from the end)"
+        if not isinstance(value, list) or len(value) != 2:
+            raise SceneError(path, f"must be {inside}, got {shown(value)}")
+        r, c = vector(2)(value, path)
+        if r != int(r) or c != int(c) or not (-ny <= r < ny and -nx <= c < nx):
+            raise SceneError(path, f"must be {inside}, got {shown(value)}")
+        return int(cloth.grid_index(int(r), int(c))[0])
+
+    return read
+
+
+def _springs(table: Table, cloth: Cloth, grid: bool) -> None:
+    """``[[body.spring]]``: springs between chosen vertices, added in one go."""
+    vertex = _vertex(cloth, grid)
+    pairs, stiffness, damping, rest = [], [], [], []
+    for t in table.tables("spring"):
+        a, b = t.get("a", vertex), t.get("b", vertex)
+        if a == b:
+            raise SceneError(t.key_path("b"), f"must be another vertex than a (both are {a})")
+        pairs.append((a, b))
+        stiffness.append(t.get("stiffness", number(0.0)))
+        damping.append(t.get("damping", number(0.0), 0.0))
+        # Default: the distance at rest, as the cloth is built.
+        length = float(np.linalg.norm(cloth.position[:, a] - cloth.position[:, b]))
+        rest.append(t.get("rest_length", number(0.0), length))
+        t.finish()
+    if pairs:
+        build(table.key_path("spring"), cloth.add_springs, pairs, stiffness, damping, rest)
+
+
 @register("cloth")
 def build_cloth(table: Table, context: BuildContext) -> ClothBody:
     """A cloth from ``grid`` (+ ``size``, ``origin``, ``rotation``) or a ``mesh`` file."""
@@ -232,6 +270,7 @@ def build_cloth(table: Table, context: BuildContext) -> ClothBody:
         except ValueError as error:
             raise SceneError(table.key_path("mesh"), str(error)) from None
     _pins(table, cloth, grid)
+    _springs(table, cloth, grid)
     tint = table.get("color", color, (0.8, 0.2, 0.15, 1.0))[:3]
     stripes = table.get("stripes", array_of(color, min_length=1), None)
     vertex_colors = None
