@@ -28,6 +28,8 @@ k nearest distances equal) before it is timed. Figures: ``{dist}_{n}_{question}_
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -98,8 +100,10 @@ def measure(quick: bool) -> dict:
             baseline = theirs(points64, r)
             label = f"{kind}_{n // 1000}k"
             for question, call in baseline.items():
+                print(f"{label} {question} ...", file=sys.stderr, flush=True)
                 reference = call()
-                base = time_calls(call, repeat=repeat, warmup=0).best
+                # cKDTree's radius lists are Python lists: tens of seconds at 1M points.
+                base = time_calls(call, repeat=1 if n > 100_000 else repeat, warmup=0).best
                 figures[f"{label}_{question}_ckdtree_s"] = base
                 cells = [f"cKDTree {base * 1e3:8.1f} ms"]
                 for structure in STRUCTURES:

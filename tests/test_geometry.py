@@ -281,6 +281,33 @@ def test_blinn_phong_highlight():
     assert_allclose(frame.color[16, 24], [expected] * 3, rtol=RTOL32)
 
 
+def test_point_light_falls_off_with_the_square_of_the_distance():
+    """A point light straight in front of the quad (at the pixel's own x, y) lights it
+    with intensity / d²; without falloff with the intensity; from behind not at all."""
+    camera = orthographic()
+    color = np.array([0.8, 0.5, 0.25])
+    # Pixel (16, 24)'s centre on the quad (8 px per metre, the view centred on 0).
+    x, y = (24 + 0.5 - W / 2) / 8, (H / 2 - 16 - 0.5) / 8
+    probe = frame_point = None
+    for d in (1.0, 2.0, 4.0):
+        frame = draw(camera, [Mesh(quad(), color=color)], lights=[mo.render.shading.PointLight(
+            (0.0, 0.0, d), intensity=2.0)])  # fmt: skip
+        centre = frame.color[16, 24]
+        r2 = x * x + y * y + d * d  # Lambert's cosine d / r, over r²
+        # rtol: the 2 x 2 samples of a pixel average a smooth falloff (error ~ (0.03/d)²).
+        assert_allclose(centre, color * 2.0 * (d / np.sqrt(r2)) / r2, rtol=3e-3)
+        probe, frame_point = centre, frame
+    flat = mo.render.shading.PointLight((0.0, 0.0, 4.0), intensity=2.0, falloff=False)
+    frame = draw(camera, [Mesh(quad(), color=color)], lights=[flat])
+    assert_allclose(frame.color[16, 24], color * 2.0 * 4.0 / np.sqrt(x * x + y * y + 16.0),
+                    rtol=3e-3)  # fmt: skip
+    behind = mo.render.shading.PointLight((0.0, 0.0, -1.0), intensity=2.0)
+    frame = draw(camera, [Mesh(quad(), color=color)], lights=[behind])
+    assert_allclose(frame.color[16, 24], 0.0, atol=1e-7)
+    # Off-centre pixels see the light at a slant and farther: darker than the centre.
+    assert frame_point.color[16, 30].sum() < probe.sum()
+
+
 def test_emission_and_hemisphere_ambient():
     camera = orthographic()
     lights = [AmbientLight((0.6, 0.6, 0.6), ground=(0.2, 0.2, 0.2))]

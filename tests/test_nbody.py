@@ -497,3 +497,22 @@ def test_coulomb_reads_a_charge_the_user_declared():
     system.add(Coulomb())  # the user's declaration stands
     system.store.spawn(2)
     assert system.store.raw("charge")[:2].tolist() == [-1.0, -1.0]
+
+
+def test_ring_bodies_are_on_circular_orbits_in_their_plane():
+    from motes.emit.nbody import ring
+
+    normal = np.array([0.3, 1.0, 0.2]) / np.linalg.norm([0.3, 1.0, 0.2])
+    x, v, m = ring(400, central_mass=2.0, radius=1.0, inner_radius=0.5, normal=normal,
+                   G=1.5, seed=4)  # fmt: skip
+    r = np.linalg.norm(x, axis=0)
+    assert r.min() >= 0.5 and r.max() <= 1.0
+    np.testing.assert_allclose(normal @ x, 0.0, atol=1e-12)  # in the plane
+    np.testing.assert_allclose(np.einsum("ij,ij->j", x, v), 0.0, atol=1e-12)  # tangential
+    np.testing.assert_allclose(np.linalg.norm(v, axis=0), np.sqrt(1.5 * 2.0 / r), rtol=1e-12)
+    np.testing.assert_allclose(np.cross(x.T, v.T) @ normal, np.sqrt(1.5 * 2.0 * r), rtol=1e-12)
+    np.testing.assert_array_equal(m, 0.0)
+    one, _, _ = ring(1, central_mass=1.0, radius=2.0, seed=1)  # one planet on its circle
+    assert np.linalg.norm(one) == pytest.approx(2.0)
+    with pytest.raises(ValueError, match="inner_radius"):
+        ring(3, central_mass=1.0, radius=1.0, inner_radius=2.0)

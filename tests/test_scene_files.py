@@ -120,6 +120,25 @@ def scene_with(extra: str, system_extra: str = "") -> str:
             "high >= low",
         ),
         (scene_with("[camera]\nnear = 2\nfar = 1"), "camera.far", "far must be > near"),
+        # lights
+        (
+            scene_with('[render]\n[[render.light]]\ntype = "spot"'),
+            "render.light[0].type",
+            "must be one of 'directional', 'point'",
+        ),
+        (
+            scene_with('[render]\n[[render.light]]\ntype = "point"'),
+            "render.light[0].position",
+            "required",
+        ),
+        (
+            scene_with(
+                '[render]\n[[render.light]]\ntype = "point"\nposition = [0, 1, 0]\nfalloff = "yes"'
+            ),
+            "render.light[0].falloff",
+            "true or false",
+        ),
+        (scene_with('[render]\nambient = "#zz0000"'), "render.ambient", "colour"),
         # structure
         ("[scene]\nduration = 1\n", "system", r"at least one \[\[system\]\] or \[\[body\]\]"),
         (scene_with("", "") + '[[system]]\nname = "a"\n', "system[1].name", "duplicate"),
@@ -219,3 +238,20 @@ def test_an_inside_capsule_cannot_be_swept():
     with pytest.raises(SceneError, match="detection 'priori' needs a solid capsule") as error:
         load_scene(text)
     assert error.value.path == "collider[0].detection"
+
+
+def test_point_lights_and_ambient_reach_the_renderer():
+    from motes.render.shading import AmbientLight, PointLight
+    from motes.scene.drawing import SceneRenderer
+
+    text = scene_with(
+        '[render]\nambient = ["#102030", "#000000"]\n[[render.light]]\ntype = "point"\n'
+        "position = [1, 2, 3]\nintensity = 4\nfalloff = false\n"
+    )
+    scene = load_scene(text)
+    (light,) = scene.render_settings.lights
+    assert isinstance(light, PointLight) and not light.falloff
+    np.testing.assert_array_equal(light.position, [1, 2, 3])
+    lights = SceneRenderer(scene, (32, 18)).renderer.lights
+    ambient = [x for x in lights if isinstance(x, AmbientLight)]
+    assert len(ambient) == 1 and ambient[0].ground.max() == 0.0

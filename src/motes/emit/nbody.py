@@ -180,23 +180,96 @@ def disc_galaxy(
     eps2 = check.non_negative("softening", softening) ** 2
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     r = _exponential_disc_radii(rng, count, outer / 3.0, inner, outer)
+    star_mass = np.full(count, disc_mass / count)
+    position, velocity = _circular_orbits(
+        rng, r, star_mass, core_mass, axis, thickness * outer, G, eps2
+    )
+    position = np.concatenate([np.zeros((3, 1)), position], axis=1)
+    velocity = np.concatenate([np.zeros((3, 1)), velocity], axis=1)
+    return position, velocity, np.concatenate([[core_mass], star_mass])
+
+
+def ring(
+    count: int,
+    *,
+    central_mass: float,
+    mass: float = 0.0,
+    radius: float = 1.0,
+    inner_radius: float | None = None,
+    normal=(0.0, 1.0, 0.0),
+    thickness: float = 0.0,
+    G: float = 1.0,
+    softening: float = 0.0,
+    seed: int | np.random.Generator = 0,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""Particles on circular orbits about a central mass at the origin: a planet's ring,
+    an asteroid belt, or (``count = 1``, ``inner_radius = radius``) one planet.
+
+    Radii are uniform in area between ``inner_radius`` and ``radius``; each particle moves
+    on the circular orbit of the central mass and the ring's mass inside its radius,
+    ``v² = G M(<r) r² / (r² + ε²)^{3/2}``, counter-clockwise about ``normal``. The
+    central mass itself is not placed (it is another particle, or a body of the scene).
+
+    Parameters
+    ----------
+    count : int
+        Particles >= 1, each of mass ``mass / count``.
+    central_mass, mass : float
+        [kg], > 0 and >= 0.
+    radius, inner_radius : float
+        Outer and inner radius [m], ``0 < inner_radius <= radius`` (default: ``radius``,
+        a circle).
+    normal : (3,) array_like
+        Rotation axis (non-zero).
+    thickness : float
+        Standard deviation of the height over the plane, as a fraction of ``radius``.
+    G, softening, seed
+        As for :func:`disc_galaxy`.
+
+    Returns
+    -------
+    position, velocity : float64 (3, count)
+        [m], [m/s], relative to the central mass.
+    particle_mass : float64 (count,) [kg]
+    """
+    count = check.integer("count", count, low=1)
+    central_mass = check.positive("central_mass", central_mass)
+    mass = check.non_negative("mass", mass)
+    outer = check.positive("radius", radius)
+    inner = outer if inner_radius is None else inner_radius
+    inner = check.real("inner_radius", inner, low=0.0, high=outer, low_open=True)
+    axis = check.unit_vector("normal", normal)
+    thickness = check.non_negative("thickness", thickness)
+    G = check.positive("G", G)
+    eps2 = check.non_negative("softening", softening) ** 2
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    r = np.sqrt(rng.uniform(inner * inner, outer * outer, count))
+    each = np.full(count, mass / count)
+    position, velocity = _circular_orbits(rng, r, each, central_mass, axis, thickness * outer,
+                                          G, eps2)  # fmt: skip
+    return position, velocity, each
+
+
+def _circular_orbits(rng, r, masses, central, axis, height, G, eps2):
+    """Positions and velocities (3, n) of bodies at radii ``r`` [m] at random angles in
+    the plane normal to ``axis`` (heights of standard deviation ``height``), each on the
+    circular orbit of ``central`` plus the masses inside its radius (softened force),
+    counter-clockwise about ``axis``."""
+    count = r.shape[0]
     phi = rng.uniform(0.0, 2.0 * np.pi, count)
-    height = rng.normal(0.0, thickness * outer, count)
+    lift = rng.normal(0.0, height, count)
     helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     e1 = np.cross(axis, helper)
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(axis, e1)
     radial = np.outer(e1, np.cos(phi)) + np.outer(e2, np.sin(phi))
     tangent = np.cross(axis[:, None], radial, axis=0)
-    star_mass = np.full(count, disc_mass / count)
     order = np.argsort(r, kind="stable")
     inside = np.empty(count)
-    inside[order] = np.cumsum(star_mass[order]) - star_mass[order]
-    enclosed = core_mass + inside
+    inside[order] = np.cumsum(masses[order]) - masses[order]
+    enclosed = central + inside
     speed = np.sqrt(G * enclosed * r * r / (r * r + eps2) ** 1.5)
-    position = np.concatenate([np.zeros((3, 1)), r * radial + height * axis[:, None]], axis=1)
-    velocity = np.concatenate([np.zeros((3, 1)), speed * tangent], axis=1)
-    return position, velocity, np.concatenate([[core_mass], star_mass])
+    return r * radial + lift * axis[:, None], speed * tangent
 
 
 def _exponential_disc_radii(rng, count, scale, inner, outer) -> np.ndarray:

@@ -479,7 +479,7 @@ def _shade_at(
             r += k * (surfaces[s, CHECKER_COLOR] - r)
             g += k * (surfaces[s, CHECKER_COLOR + 1] - g)
             bl += k * (surfaces[s, CHECKER_COLOR + 2] - bl)
-    return shade(nx, ny, nz, vx, vy, vz, r, g, bl, surfaces, s, lights, ambient)
+    return shade(nx, ny, nz, vx, vy, vz, wx, wy, wz, r, g, bl, surfaces, s, lights, ambient)
 
 
 @serial_kernel

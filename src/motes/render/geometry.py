@@ -499,7 +499,7 @@ def draw_geometry(
     camera : Camera
     objects : sequence of Ground, Sphere, Box, Mesh, Lines
         Drawn in one pass; order matters only among lines blending over each other.
-    lights : sequence of DirectionalLight and at most one AmbientLight, optional
+    lights : sequence of DirectionalLight, PointLight and at most one AmbientLight, optional
         ``None``: :func:`motes.render.shading.default_lights`.
     supersample : int
         Samples per pixel along each axis, 1 to 4. Each 32×32-pixel tile is drawn into

@@ -1,8 +1,10 @@
 """Lights and surface shading of opaque geometry, in linear light.
 
 The shading model, per sample with unit normal ``n`` (turned toward the viewer), unit
-direction to the viewer ``v``, albedo ``c`` and, for each directional light, unit
-direction toward the light ``l`` and radiance ``L``:
+direction to the viewer ``v``, albedo ``c`` and, for each light, unit direction toward
+the light ``l`` and radiance ``L`` (a directional light's is constant; a point light's
+``l`` points from the sample to the light and its ``L`` falls off as ``1/d²`` with the
+distance ``d``, unless it is made not to):
 
 .. math::
 
@@ -33,9 +35,11 @@ from ..color import parse_color
 SPECULAR, SHININESS, EMISSION, FLAT, CHECKER_COLOR, CHECKER_DENSITY = 0, 1, 2, 5, 6, 9
 SURFACE_SIZE = 10
 
-# Layout of one packed directional light: unit direction toward the light, radiance.
-LIGHT_DIRECTION, LIGHT_RADIANCE = 0, 3
-LIGHT_SIZE = 6
+# Layout of one packed light: unit direction toward the light (directional), radiance,
+# position (point), a point-light flag (1: point, 0: directional) and whether a point
+# light falls off with the square of the distance.
+LIGHT_DIRECTION, LIGHT_RADIANCE, LIGHT_POSITION, LIGHT_POINT, LIGHT_FALLOFF = 0, 3, 6, 9, 10
+LIGHT_SIZE = 11
 
 
 def rgb(name: str, value) -> np.ndarray:
@@ -120,6 +124,35 @@ class DirectionalLight:
         return f"DirectionalLight({tuple(self.direction.round(4).tolist())}, ...)"
 
 
+class PointLight:
+    """Light from a point (a star among its planets, a lamp): rays from ``position``.
+
+    Parameters
+    ----------
+    position : (3,) array_like
+        Where the light is [m].
+    color : colour
+        Linear RGB of the light.
+    intensity : float
+        Multiplies ``color`` (>= 0): a white surface facing the light ``d`` metres away
+        reflects ``color * intensity / d²`` (or ``color * intensity`` without falloff).
+    falloff : bool
+        Inverse-square falloff with distance (True, physical) or none.
+    """
+
+    def __init__(self, position=(0.0, 0.0, 0.0), *, color=(1, 1, 1), intensity=1.0,
+                 falloff: bool = True):  # fmt: skip
+        self.position = check.vector("position", position)
+        self.color = rgb("color", color)
+        self.intensity = check.non_negative("intensity", intensity)
+        if not isinstance(falloff, bool):
+            raise TypeError(f"falloff must be True or False, got {falloff!r}")
+        self.falloff = falloff
+
+    def __repr__(self) -> str:
+        return f"PointLight({tuple(self.position.round(4).tolist())}, ...)"
+
+
 class AmbientLight:
     """Light from everywhere: uniform, or a sky/ground hemisphere blend.
 
@@ -149,23 +182,30 @@ def default_lights() -> list:
 
 
 def pack_lights(lights) -> tuple[np.ndarray, np.ndarray]:
-    """Directional lights as an (L, LIGHT_SIZE) float64 array and ambient (sky, ground) (6,).
+    """Directional and point lights as an (L, LIGHT_SIZE) float64 array and ambient
+    (sky, ground) (6,).
 
-    ``lights`` is a sequence of :class:`DirectionalLight` and at most one
-    :class:`AmbientLight` (none: no ambient light); ``None`` means :func:`default_lights`.
+    ``lights`` is a sequence of :class:`DirectionalLight`, :class:`PointLight` and at most
+    one :class:`AmbientLight` (none: no ambient light); ``None`` means
+    :func:`default_lights`.
     """
     if lights is None:
         lights = default_lights()
-    if isinstance(lights, (DirectionalLight, AmbientLight)):
+    if isinstance(lights, (DirectionalLight, PointLight, AmbientLight)):
         lights = [lights]
     directional = []
     ambient = np.zeros(6)
     ambients = 0
     for i, light in enumerate(lights):
-        if isinstance(light, DirectionalLight):
-            row = np.empty(LIGHT_SIZE)
-            row[LIGHT_DIRECTION : LIGHT_DIRECTION + 3] = -light.direction
+        if isinstance(light, (DirectionalLight, PointLight)):
+            row = np.zeros(LIGHT_SIZE)
             row[LIGHT_RADIANCE : LIGHT_RADIANCE + 3] = light.color * light.intensity
+            if isinstance(light, DirectionalLight):
+                row[LIGHT_DIRECTION : LIGHT_DIRECTION + 3] = -light.direction
+            else:
+                row[LIGHT_POSITION : LIGHT_POSITION + 3] = light.position
+                row[LIGHT_POINT] = 1.0
+                row[LIGHT_FALLOFF] = float(light.falloff)
             directional.append(row)
         elif isinstance(light, AmbientLight):
             ambients += 1
@@ -173,7 +213,7 @@ def pack_lights(lights) -> tuple[np.ndarray, np.ndarray]:
             ambient[3:] = light.ground * light.intensity
         else:
             raise TypeError(
-                f"lights[{i}] must be a DirectionalLight or AmbientLight, got {light!r}"
+                f"lights[{i}] must be a DirectionalLight, PointLight or AmbientLight, got {light!r}"
             )
     if ambients > 1:
         raise ValueError(f"lights may hold at most one AmbientLight, got {ambients}")
@@ -207,11 +247,12 @@ def checker_fraction(u, w, size):
 
 
 @device
-def shade(nx, ny, nz, vx, vy, vz, r, g, b, surfaces, s, lights, ambient):
+def shade(nx, ny, nz, vx, vy, vz, wx, wy, wz, r, g, b, surfaces, s, lights, ambient):
     """Outgoing radiance (r, g, b) of a surface sample (see the module docstring).
 
     ``(nx, ny, nz)`` and ``(vx, vy, vz)`` are the unit normal and unit direction to the
-    viewer, ``(r, g, b)`` the albedo, ``surfaces[s]`` the surface row (passed as table and
+    viewer, ``(wx, wy, wz)`` the sample's world position [m] (for point lights),
+    ``(r, g, b)`` the albedo, ``surfaces[s]`` the surface row (passed as table and
     index: slicing a row out would cost a reference-count update per sample), ``lights``
     the packed directional lights and ``ambient`` the packed (sky, ground) ambient.
     """
@@ -227,7 +268,19 @@ def shade(nx, ny, nz, vx, vy, vz, r, g, b, surfaces, s, lights, ambient):
         lx = lights[k, LIGHT_DIRECTION]
         ly = lights[k, LIGHT_DIRECTION + 1]
         lz = lights[k, LIGHT_DIRECTION + 2]
-        cos_l = nx * lx + ny * ly + nz * lz
+        scale = 1.0
+        if lights[k, LIGHT_POINT] > 0.5:
+            lx = lights[k, LIGHT_POSITION] - wx
+            ly = lights[k, LIGHT_POSITION + 1] - wy
+            lz = lights[k, LIGHT_POSITION + 2] - wz
+            d2 = max(lx * lx + ly * ly + lz * lz, 1e-12)
+            inv = 1.0 / math.sqrt(d2)
+            lx *= inv
+            ly *= inv
+            lz *= inv
+            if lights[k, LIGHT_FALLOFF] > 0.5:
+                scale = 1.0 / d2
+        cos_l = (nx * lx + ny * ly + nz * lz) * scale
         if cos_l <= 0.0:
             continue
         dr += lights[k, LIGHT_RADIANCE] * cos_l
@@ -240,7 +293,7 @@ def shade(nx, ny, nz, vx, vy, vz, r, g, b, surfaces, s, lights, ambient):
             h = math.sqrt(hx * hx + hy * hy + hz * hz)
             cos_h = (nx * hx + ny * hy + nz * hz) / max(h, 1e-12)
             if cos_h > 0.0:
-                spec = ks * cos_h ** surfaces[s, SHININESS]
+                spec = ks * scale * cos_h ** surfaces[s, SHININESS]
                 sr += lights[k, LIGHT_RADIANCE] * spec
                 sg += lights[k, LIGHT_RADIANCE + 1] * spec
                 sb += lights[k, LIGHT_RADIANCE + 2] * spec

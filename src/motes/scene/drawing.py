@@ -10,7 +10,7 @@ from ..io.frames import read_image
 from ..render import geometry
 from ..render.metaballs import GridError, Metaballs
 from ..render.renderer import Renderer, background_from
-from ..render.shading import AmbientLight, DirectionalLight, Material, default_lights
+from ..render.shading import AmbientLight, Material, default_lights
 from ..render.sprites import SpriteStyle
 from .looks import ParticleLook, SceneObject, SpheresLook, SurfaceLook
 from .schema import SceneError, key_name
@@ -25,7 +25,7 @@ class SceneRenderer:
         self.renderer = Renderer(
             camera,
             background=background_from(settings.background),
-            lights=_lights(settings.lights),
+            lights=_lights(settings.lights, settings.ambient),
             exposure=settings.exposure,
             tonemap=settings.tonemap,
             supersample=settings.supersample,
@@ -125,12 +125,15 @@ class _Spheres:
         ]  # fmt: skip
 
 
-def _lights(lights):
-    if not lights:
+def _lights(lights, ambient=None):
+    if not lights and ambient is None:
         return None
-    result = [DirectionalLight(d, color=c[:3], intensity=i) for d, c, i in lights]
-    ambient = [light for light in default_lights() if isinstance(light, AmbientLight)]
-    return result + ambient
+    if not lights:
+        lights = [light for light in default_lights() if not isinstance(light, AmbientLight)]
+    if ambient is None:
+        return [*lights, *(x for x in default_lights() if isinstance(x, AmbientLight))]
+    sky, ground = ambient
+    return [*lights, AmbientLight(sky, ground=ground)]
 
 
 def _style(look: ParticleLook, path: str) -> SpriteStyle:

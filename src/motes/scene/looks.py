@@ -54,7 +54,8 @@ class RenderSettings:
     exposure: float = 1.0
     tonemap: str = "aces"
     supersample: int = 2
-    lights: list = field(default_factory=list)  # (direction, colour, intensity)
+    lights: list = field(default_factory=list)  # DirectionalLight and PointLight
+    ambient: tuple | None = None  # (sky, ground) linear RGB; None: the default ambient
 
 
 @dataclass

@@ -520,16 +520,23 @@ MAX_PLACED = 10_000_000
 def place_particles(table: Table, system) -> None:
     """Add the particles of a ``[[system.particles]]`` table to ``system``.
 
-    ``type = "plummer"`` (a star cluster in equilibrium) or ``"disc_galaxy"`` (stars on
-    circular orbits around a heavy core); the orbits are for the system's
+    ``type = "plummer"`` (a star cluster in equilibrium), ``"disc_galaxy"`` (stars on
+    circular orbits around a heavy core), ``"ring"`` (bodies on circular orbits about a
+    ``central_mass`` at ``center``: a planet's ring, a belt, one planet) or ``"body"``
+    (one particle: a star, a planet launched by hand); the orbits are for the system's
     ``nbody_gravity`` force (its ``G`` and softening), which must come first. Moved to
     ``center``, given the bulk ``velocity``; coloured ``color`` at the centre shading to
     ``outer_color`` at the edge, radius ``size`` (a galaxy's core ``core_size``).
     """
     from ..emit import nbody
 
-    kind = table.get("type", one_of("plummer", "disc_galaxy"))
-    count = table.get("count", integer(1, MAX_PLACED))
+    kind = table.get("type", one_of("plummer", "disc_galaxy", "ring", "body"))
+    if kind == "body":
+        count = table.get("count", integer(1, 1), 1)
+    elif kind == "ring":
+        count = table.get("count", integer(1, MAX_PLACED), 1)
+    else:
+        count = table.get("count", integer(1, MAX_PLACED))
     gravity = next((f for f in system.forces if isinstance(f, forces.NBodyGravity)), None)
     if gravity is None:
         raise SceneError(
@@ -551,7 +558,7 @@ def place_particles(table: Table, system) -> None:
             mass=table.get("mass", positive(), 1.0), radius=radius, **common,
         )  # fmt: skip
         extent = 3.0 * radius
-    else:
+    elif kind == "disc_galaxy":
         radius = table.get("radius", positive(), 1.0)
         position, velocity, mass = build(
             table.path, nbody.disc_galaxy, count - 1,
@@ -564,6 +571,25 @@ def place_particles(table: Table, system) -> None:
             softening=gravity.softening, **common,
         )  # fmt: skip
         extent = radius
+    elif kind == "ring":
+        radius = table.get("radius", positive(), 1.0)
+        position, velocity, mass = build(
+            table.path, nbody.ring, count,
+            central_mass=table.get("central_mass", positive()),
+            mass=table.get("mass", number(0.0), 0.0),
+            radius=radius,
+            inner_radius=table.get("inner_radius", positive(), radius),
+            normal=table.get("normal", vector(), (0.0, 1.0, 0.0)),
+            thickness=table.get("thickness", number(0.0), 0.0),
+            softening=gravity.softening, **common,
+        )  # fmt: skip
+        # A massless ring is drawn but does not pull: its particles still need a mass.
+        mass = np.maximum(mass, 1e-30)
+        extent = radius
+    else:  # one body, placed and launched as given
+        position, velocity = np.zeros((3, 1)), np.zeros((3, 1))
+        mass = np.array([table.get("mass", positive(), 1.0)])
+        extent = 1.0
     inner = _rgba(table.get("color", color, (1.0, 1.0, 1.0, 1.0)))
     outer = _rgba(table.get("outer_color", color, tuple(inner)))
     size = table.get("size", positive(), 0.02)

@@ -19,6 +19,7 @@ from ..collide.colliders import Collider
 from ..finite import check_finite
 from ..integrate.implicit import SolverError
 from ..render.camera import Camera, Projection
+from ..render.shading import DirectionalLight, PointLight
 from ..state import ParticleState
 from ..system import ParticleSystem
 from . import parts
@@ -364,16 +365,40 @@ def _render_settings(table: Table | None) -> RenderSettings:
     settings.tonemap = table.get("tonemap", one_of("clamp", "reinhard", "aces"), "aces")
     settings.supersample = table.get("supersample", integer(1, 4), 2)
     for light in table.tables("light"):
-        settings.lights.append(
-            (
-                light.get("direction", vector()),
-                light.get("color", color, (1.0, 1.0, 1.0, 1.0)),
-                light.get("intensity", number(0.0), 1.0),
-            )
-        )
-        light.finish()
+        settings.lights.append(_light(light))
+    ambient = table.get("ambient", _ambient, None)
+    if ambient is not None:
+        settings.ambient = ambient
     table.finish()
     return settings
+
+
+def _ambient(value, path):
+    """``ambient``: one colour (light from every direction) or [sky, ground]."""
+    if isinstance(value, list) and len(value) == 2 and all(
+        isinstance(v, (str, list)) for v in value
+    ):
+        return tuple(color(v, f"{path}[{k}]")[:3] for k, v in enumerate(value))
+    one = color(value, path)[:3]
+    return one, one
+
+
+def _light(table: Table):
+    """A ``[[render.light]]``: directional (the default) or a point light."""
+    kind = table.get("type", one_of("directional", "point"), "directional")
+    options = {
+        "color": table.get("color", color, (1.0, 1.0, 1.0, 1.0))[:3],
+        "intensity": table.get("intensity", number(0.0), 1.0),
+    }
+    if kind == "point":
+        light = build(
+            table.path, PointLight, table.get("position", vector()),
+            falloff=table.get("falloff", boolean, True), **options,
+        )  # fmt: skip
+    else:
+        light = build(table.path, DirectionalLight, table.get("direction", vector()), **options)
+    table.finish()
+    return light
 
 
 def _look(table: Table | None, base: Path) -> ParticleLook:
