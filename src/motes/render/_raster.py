@@ -413,7 +413,7 @@ def _face_barycentrics(tri, slot, px, py):
 @device
 def _shade_at(
     cam, pixel_size, slot, px, py, tri, tri_face, tri_facing, positions, normals, colors,
-    faces, face_surface, face_normal, surfaces, lights, ambient,
+    faces, face_surface, face_normal, surfaces, lights, ambient, shadow_cams, shadow_maps,
 ):  # fmt: skip
     """Radiance (r, g, b) of the surface of screen triangle ``slot`` seen at sample (px, py).
 
@@ -479,7 +479,10 @@ def _shade_at(
             r += k * (surfaces[s, CHECKER_COLOR] - r)
             g += k * (surfaces[s, CHECKER_COLOR + 1] - g)
             bl += k * (surfaces[s, CHECKER_COLOR + 2] - bl)
-    return shade(nx, ny, nz, vx, vy, vz, wx, wy, wz, r, g, bl, surfaces, s, lights, ambient)
+    return shade(
+        nx, ny, nz, vx, vy, vz, wx, wy, wz, r, g, bl, surfaces, s, lights, ambient, shadow_cams,
+        shadow_maps,
+    )  # fmt: skip
 
 
 @serial_kernel
@@ -546,7 +549,7 @@ def _draw_line(lines, s, seg_colors, ox, oy, sw, sh, far, zbuf, cbuf, touched, s
 def _draw_tile(
     cam, pixel_size, ss, t, starts, items, tiles_x, tri_count, tri, tri_face, tri_facing,
     positions, normals, colors, faces, face_surface, face_normal, surfaces, lights, ambient,
-    lines, seg_colors, color, depth,
+    shadow_cams, shadow_maps, lines, seg_colors, color, depth,
 ):  # fmt: skip
     """Draw tile ``t`` (see :func:`draw_tiles`), whose parallel loop stays a thin wrapper."""
     height, width = depth.shape
@@ -616,7 +619,8 @@ def _draw_tile(
                         r, g, b = _shade_at(
                             cam, pixel_size, slot, ox + i + 0.5, oy + j + 0.5, tri,
                             tri_face, tri_facing, positions, normals, colors, faces,
-                            face_surface, face_normal, surfaces, lights, ambient,
+                            face_surface, face_normal, surfaces, lights, ambient, shadow_cams,
+                            shadow_maps,
                         )  # fmt: skip
                         hit = cached
                         cached_slot[hit] = slot
@@ -670,8 +674,8 @@ def _draw_tile(
 @parallel_kernel
 def draw_tiles(
     cam, ss, starts, items, tiles_x, tri_count, tri, tri_face, tri_facing, positions, normals,
-    colors, faces, face_surface, face_normal, surfaces, lights, ambient, lines, seg_colors,
-    color, depth,
+    colors, faces, face_surface, face_normal, surfaces, lights, ambient, shadow_cams,
+    shadow_maps, lines, seg_colors, color, depth,
 ):  # fmt: skip
     """Draw every tile's triangles, then its lines, and resolve into the frame.
 
@@ -694,5 +698,5 @@ def draw_tiles(
         _draw_tile(
             cam, pixel_size, ss, t, starts, items, tiles_x, tri_count, tri, tri_face,
             tri_facing, positions, normals, colors, faces, face_surface, face_normal, surfaces,
-            lights, ambient, lines, seg_colors, color, depth,
+            lights, ambient, shadow_cams, shadow_maps, lines, seg_colors, color, depth,
         )  # fmt: skip

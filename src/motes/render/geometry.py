@@ -27,7 +27,18 @@ from ..geometry.mesh import TriangleMesh
 from ._raster import CORNER, LINE_SIZE, draw_tiles, project_vertices, setup_lines, setup_triangles
 from .camera import Camera
 from .frame import Frame
-from .shading import SURFACE_SIZE, Material, pack_lights, rgb, surface_row
+from .shading import (
+    LIGHT_SHADOW,
+    SURFACE_SIZE,
+    AmbientLight,
+    DirectionalLight,
+    Material,
+    PointLight,
+    default_lights,
+    pack_lights,
+    rgb,
+    surface_row,
+)
 from .tiles import bin_boxes
 
 __all__ = ["Box", "Capsule", "Ground", "Lines", "Mesh", "Sphere", "draw_geometry"]
@@ -542,6 +553,8 @@ def draw_geometry(
             )
     positions, normals, colors, faces, face_surface, surfaces = _combine(sets)
     ends, seg_colors, widths = _combine_lines(line_sets)
+    casters = [o for o in objects if isinstance(o, (Sphere, Spheres, Capsule, Box, Mesh))]
+    shadow_cams, shadow_maps = _shadow_maps(lights, directional, casters, camera)
 
     cam = camera.packed()
     view = np.empty_like(positions)
@@ -564,8 +577,37 @@ def draw_geometry(
     draw_tiles(
         cam, ss, bins.starts, bins.items, bins.tiles_x, slots, tri, tri_face, tri_facing,
         positions, normals, colors, faces, face_surface, face_normal, surfaces, directional,
-        ambient, lines, seg_colors, frame.color, frame.depth,
+        ambient, shadow_cams, shadow_maps, lines, seg_colors, frame.color, frame.depth,
     )  # fmt: skip
+
+
+def _shadow_maps(lights, packed, casters, camera):
+    """Depth maps of ``casters`` seen by each directional light that casts shadows, and
+    their packed cameras; writes each light's map index into its row of ``packed``.
+
+    Returns ``(cams (m, PACKED_SIZE), maps (m, R, R) float32)``; m may be 0.
+    """
+    from .camera import PACKED_SIZE
+    from .frame import Frame
+    from .shadows import RESOLUTION, casters_sphere, light_camera
+
+    if lights is None or isinstance(lights, (DirectionalLight, PointLight, AmbientLight)):
+        lights = default_lights() if lights is None else [lights]
+    rows = [x for x in lights if isinstance(x, (DirectionalLight, PointLight))]
+    shadowed = [k for k, x in enumerate(rows) if isinstance(x, DirectionalLight) and x.shadows]
+    if not shadowed or not casters:
+        return np.zeros((0, PACKED_SIZE)), np.ones((0, 1, 1), np.float32)
+    points = np.concatenate([o.triangles(camera).positions for o in casters])
+    center, radius = casters_sphere(points)
+    cams, maps = [], []
+    for k in shadowed:
+        view = light_camera(rows[k].direction, center, radius)
+        depth = Frame(RESOLUTION, RESOLUTION)
+        draw_geometry(depth, view, casters, lights=[AmbientLight((0, 0, 0))], supersample=1)
+        packed[k, LIGHT_SHADOW] = len(maps)
+        cams.append(view.packed())
+        maps.append(depth.depth)
+    return np.stack(cams), np.stack(maps)
 
 
 def _combine(sets: list[TriangleSet]):

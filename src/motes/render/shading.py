@@ -28,6 +28,7 @@ import numpy as np
 from .. import _validate as check
 from .._jit import device
 from ..color import parse_color
+from .shadows import visibility
 
 # Layout of one surface row (float64) that the rasteriser reads per object: Blinn-Phong
 # strength and exponent, emission, flat-shading flag, checker colour and checker cells
@@ -36,10 +37,12 @@ SPECULAR, SHININESS, EMISSION, FLAT, CHECKER_COLOR, CHECKER_DENSITY = 0, 1, 2, 5
 SURFACE_SIZE = 10
 
 # Layout of one packed light: unit direction toward the light (directional), radiance,
-# position (point), a point-light flag (1: point, 0: directional) and whether a point
-# light falls off with the square of the distance.
+# position (point), a point-light flag (1: point, 0: directional), whether a point light
+# falls off with the square of the distance, and the index of the light's shadow map (-1:
+# none; :mod:`motes.render.shadows`).
 LIGHT_DIRECTION, LIGHT_RADIANCE, LIGHT_POSITION, LIGHT_POINT, LIGHT_FALLOFF = 0, 3, 6, 9, 10
-LIGHT_SIZE = 11
+LIGHT_SHADOW = 11
+LIGHT_SIZE = 12
 
 
 def rgb(name: str, value) -> np.ndarray:
@@ -113,12 +116,19 @@ class DirectionalLight:
     intensity : float
         Multiplies ``color`` (>= 0): a white surface facing the light reflects
         ``color * intensity``.
+    shadows : bool
+        Opaque geometry casts shadows from this light onto itself and the ground (a
+        shadow map filtered by percentage-closer filtering, :mod:`motes.render.shadows`).
     """
 
-    def __init__(self, direction=(-0.35, -1.0, -0.55), *, color=(1, 1, 1), intensity=1.0):
+    def __init__(self, direction=(-0.35, -1.0, -0.55), *, color=(1, 1, 1), intensity=1.0,
+                 shadows: bool = False):  # fmt: skip
         self.direction = check.unit_vector("direction", direction)
         self.color = rgb("color", color)
         self.intensity = check.non_negative("intensity", intensity)
+        if not isinstance(shadows, bool):
+            raise TypeError(f"shadows must be True or False, got {shadows!r}")
+        self.shadows = shadows
 
     def __repr__(self) -> str:
         return f"DirectionalLight({tuple(self.direction.round(4).tolist())}, ...)"
@@ -199,6 +209,7 @@ def pack_lights(lights) -> tuple[np.ndarray, np.ndarray]:
     for i, light in enumerate(lights):
         if isinstance(light, (DirectionalLight, PointLight)):
             row = np.zeros(LIGHT_SIZE)
+            row[LIGHT_SHADOW] = -1.0
             row[LIGHT_RADIANCE : LIGHT_RADIANCE + 3] = light.color * light.intensity
             if isinstance(light, DirectionalLight):
                 row[LIGHT_DIRECTION : LIGHT_DIRECTION + 3] = -light.direction
@@ -247,14 +258,19 @@ def checker_fraction(u, w, size):
 
 
 @device
-def shade(nx, ny, nz, vx, vy, vz, wx, wy, wz, r, g, b, surfaces, s, lights, ambient):
+def shade(
+    nx, ny, nz, vx, vy, vz, wx, wy, wz, r, g, b, surfaces, s, lights, ambient, shadow_cams,
+    shadow_maps,
+):  # fmt: skip
     """Outgoing radiance (r, g, b) of a surface sample (see the module docstring).
 
     ``(nx, ny, nz)`` and ``(vx, vy, vz)`` are the unit normal and unit direction to the
     viewer, ``(wx, wy, wz)`` the sample's world position [m] (for point lights),
     ``(r, g, b)`` the albedo, ``surfaces[s]`` the surface row (passed as table and
     index: slicing a row out would cost a reference-count update per sample), ``lights``
-    the packed directional lights and ``ambient`` the packed (sky, ground) ambient.
+    the packed lights, ``ambient`` the packed (sky, ground) ambient, and
+    ``shadow_cams``/``shadow_maps`` the packed light cameras and depth maps of the lights
+    that cast shadows (:mod:`motes.render.shadows`).
     """
     up = 0.5 * (1.0 + ny)
     dr = ambient[3] + (ambient[0] - ambient[3]) * up
@@ -283,6 +299,13 @@ def shade(nx, ny, nz, vx, vy, vz, wx, wy, wz, r, g, b, surfaces, s, lights, ambi
         cos_l = (nx * lx + ny * ly + nz * lz) * scale
         if cos_l <= 0.0:
             continue
+        shadow = int(lights[k, LIGHT_SHADOW])
+        if shadow >= 0:
+            seen = visibility(shadow_cams, shadow_maps, shadow, nx, ny, nz, wx, wy, wz)
+            if seen <= 0.0:
+                continue
+            scale *= seen
+            cos_l *= seen
         dr += lights[k, LIGHT_RADIANCE] * cos_l
         dg += lights[k, LIGHT_RADIANCE + 1] * cos_l
         db += lights[k, LIGHT_RADIANCE + 2] * cos_l

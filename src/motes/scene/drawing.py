@@ -10,7 +10,7 @@ from ..io.frames import read_image
 from ..render import geometry
 from ..render.metaballs import GridError, Metaballs
 from ..render.renderer import Renderer, background_from
-from ..render.shading import AmbientLight, Material, default_lights
+from ..render.shading import AmbientLight, DirectionalLight, Material, default_lights
 from ..render.sprites import SpriteStyle
 from .looks import ParticleLook, SceneObject, SpheresLook, SurfaceLook
 from .schema import SceneError, key_name
@@ -126,10 +126,12 @@ class _Spheres:
 
 
 def _lights(lights, ambient=None):
-    if not lights and ambient is None:
-        return None
+    """A scene's lights: its own, or the default key light (casting shadows), with its
+    ambient or the default one."""
     if not lights:
-        lights = [light for light in default_lights() if not isinstance(light, AmbientLight)]
+        key = next(x for x in default_lights() if isinstance(x, DirectionalLight))
+        lights = [DirectionalLight(key.direction, color=key.color, intensity=key.intensity,
+                                   shadows=True)]  # fmt: skip
     if ambient is None:
         return [*lights, *(x for x in default_lights() if isinstance(x, AmbientLight))]
     sky, ground = ambient

@@ -375,8 +375,10 @@ def _render_settings(table: Table | None) -> RenderSettings:
 
 def _ambient(value, path):
     """``ambient``: one colour (light from every direction) or [sky, ground]."""
-    if isinstance(value, list) and len(value) == 2 and all(
-        isinstance(v, (str, list)) for v in value
+    if (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(isinstance(v, (str, list)) for v in value)
     ):
         return tuple(color(v, f"{path}[{k}]")[:3] for k, v in enumerate(value))
     one = color(value, path)[:3]
@@ -396,7 +398,10 @@ def _light(table: Table):
             falloff=table.get("falloff", boolean, True), **options,
         )  # fmt: skip
     else:
-        light = build(table.path, DirectionalLight, table.get("direction", vector()), **options)
+        light = build(
+            table.path, DirectionalLight, table.get("direction", vector()),
+            shadows=table.get("shadows", boolean, True), **options,
+        )  # fmt: skip
     table.finish()
     return light
 

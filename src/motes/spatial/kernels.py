@@ -266,3 +266,35 @@ def knn_shells(
             for j in range(k):
                 out_d2[q, j] = best[j]
                 out_index[q, j] = order[slot[j]]
+
+
+@parallel_kernel
+def count_upper(offsets, indices, counts):
+    """Entries ``j > i`` in each CSR row ``i`` (the pairs a self query lists once)."""
+    n = offsets.shape[0] - 1
+    for block in prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            c = 0
+            for k in range(offsets[i], offsets[i + 1]):
+                c += indices[k] > i
+            counts[i] = c
+
+
+@parallel_kernel
+def upper_pairs(offsets, indices, first, out):
+    """Write each row's entries ``j > i`` as pairs ``(i, j)`` from ``out[first[i]]`` on,
+    ``j`` ascending: every pair once, sorted by ``i`` then ``j``."""
+    n = offsets.shape[0] - 1
+    for block in prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for i in range(start, stop):
+            base = first[i]
+            m = 0
+            for k in range(offsets[i], offsets[i + 1]):
+                j = indices[k]
+                if j > i:
+                    out[base + m, 0] = i
+                    out[base + m, 1] = j
+                    m += 1
+            out[base : base + m, 1].sort()

@@ -7,6 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .kernels import count_upper, upper_pairs
+
 
 class NeighborOverflow(RuntimeError):
     """A point has more neighbours than the fixed capacity holds (see ``grow``)."""
@@ -59,9 +61,16 @@ class Neighbors:
 
 def sorted_pairs(lists: Neighbors) -> np.ndarray:
     """The unordered pairs of a self query, ``(i, j)`` with ``i < j``, sorted by ``i``
-    then ``j``; shape (pairs, 2), int64. Sorted, so every structure gives the same array."""
-    pairs = lists.pairs()
-    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+    then ``j``; shape (pairs, 2), int64. Sorted, so every structure gives the same array
+    (rows are already in order: each row's entries are sorted on their own, in parallel)."""
+    rows = lists.offsets.shape[0] - 1
+    counts = np.empty(rows, np.int64)
+    count_upper(lists.offsets, lists.indices, counts)
+    first = np.zeros(rows + 1, np.int64)
+    np.cumsum(counts, out=first[1:])
+    out = np.empty((int(first[-1]), 2), np.int64)
+    upper_pairs(lists.offsets, lists.indices, first, out)
+    return out
 
 
 def points_rows(name: str, value) -> np.ndarray:

@@ -1,0 +1,105 @@
+"""Shadow maps for directional lights, filtered by percentage-closer filtering.
+
+For each directional light that casts shadows (``DirectionalLight(..., shadows=True)``),
+:func:`shadow_maps` renders the depth of the shadow casters as the light sees them: an
+orthographic camera looking along the light, fitted around the casters' bounding sphere
+(Williams 1978). Grounds are receivers only (a ground to the horizon would spread the map
+over kilometres), and a point outside the map is lit.
+
+When a surface sample is shaded, :func:`visibility` projects it into the light's view
+and compares its depth with the map's over a square of ``(2 PCF_RADIUS + 1)²`` texels,
+each comparison weighted bilinearly at the square's rim (Reeves, Salesin & Cook 1987,
+percentage-closer filtering): the fraction of comparisons that find the sample in front
+is how much of the light reaches it, which gives shadows soft, anti-aliased edges a few
+texels wide instead of jagged steps. A depth bias of ``BIAS_TEXELS`` texels (plus a
+slope term: a surface at a grazing angle to the light spans several depths per texel)
+keeps lit surfaces from shadowing themselves ("shadow acne").
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._jit import called
+from .camera import EYE, FORWARD, HEIGHT, RIGHT, SCALE, UP, WIDTH, Camera
+
+#: Texels of each shadow map side.
+RESOLUTION = 2048
+#: Texels on each side of the centre texel that percentage-closer filtering compares.
+PCF_RADIUS = 2
+#: Constant depth bias, in texels of the map.
+BIAS_TEXELS = 1.5
+
+
+def light_camera(direction, center, radius: float, resolution: int = RESOLUTION) -> Camera:
+    """An orthographic camera looking along ``direction`` (the way the light travels) at a
+    sphere of ``radius`` [m] about ``center``, its view just holding the sphere."""
+    direction = np.asarray(direction, dtype=np.float64)
+    radius = max(float(radius), 1e-6)
+    eye = np.asarray(center, dtype=np.float64) - 2.0 * radius * direction
+    up = (0.0, 0.0, 1.0) if abs(direction[1]) > 0.9 else (0.0, 1.0, 0.0)
+    return Camera(
+        eye, np.asarray(center, dtype=np.float64), up=up, projection="orthographic",
+        height=2.0 * radius, resolution=(resolution, resolution), near=1e-3 * radius,
+        far=4.0 * radius,
+    )  # fmt: skip
+
+
+# Called rather than inlined: the shading device function is inlined into the tile
+# kernel, and inlining this loop too would lengthen that kernel's compile for no speed.
+@called
+def visibility(cams, maps, index, nx, ny, nz, wx, wy, wz):
+    """Fraction in [0, 1] of light ``index``'s shadow map that sees the point
+    ``(wx, wy, wz)`` [m] with unit normal ``n`` (see the module docstring)."""
+    cam = cams[index]
+    dx = wx - cam[EYE]
+    dy = wy - cam[EYE + 1]
+    dz = wz - cam[EYE + 2]
+    x = dx * cam[RIGHT] + dy * cam[RIGHT + 1] + dz * cam[RIGHT + 2]
+    y = dx * cam[UP] + dy * cam[UP + 1] + dz * cam[UP + 2]
+    z = dx * cam[FORWARD] + dy * cam[FORWARD + 1] + dz * cam[FORWARD + 2]
+    size = maps.shape[1]
+    # Texel coordinates of the point (texel (j, i) has its centre at (i + 0.5, j + 0.5)).
+    u = 0.5 * cam[WIDTH] + cam[SCALE] * x - 0.5
+    v = 0.5 * cam[HEIGHT] - cam[SCALE] * y - 0.5
+    if u < -0.5 or v < -0.5 or u > size - 0.5 or v > size - 0.5:
+        return 1.0
+    texel = 1.0 / cam[SCALE]
+    # cos of the angle between the normal and the light (the light looks along FORWARD).
+    cos_l = abs(nx * cam[FORWARD] + ny * cam[FORWARD + 1] + nz * cam[FORWARD + 2])
+    slope = math.sqrt(max(1.0 - cos_l * cos_l, 0.0)) / max(cos_l, 0.2)
+    reference = z - texel * (BIAS_TEXELS + 1.5 * slope)
+    i0 = math.floor(u)
+    j0 = math.floor(v)
+    fu = u - i0
+    fv = v - j0
+    lit = 0.0
+    total = 0.0
+    for dj in range(-PCF_RADIUS, PCF_RADIUS + 2):
+        wv = 1.0
+        if dj == -PCF_RADIUS:
+            wv = 1.0 - fv
+        elif dj == PCF_RADIUS + 1:
+            wv = fv
+        j = min(max(j0 + dj, 0), size - 1)
+        for di in range(-PCF_RADIUS, PCF_RADIUS + 2):
+            wu = 1.0
+            if di == -PCF_RADIUS:
+                wu = 1.0 - fu
+            elif di == PCF_RADIUS + 1:
+                wu = fu
+            i = min(max(i0 + di, 0), size - 1)
+            w = wu * wv
+            total += w
+            if reference <= maps[index, j, i]:
+                lit += w
+    return lit / total
+
+
+def casters_sphere(positions: np.ndarray) -> tuple[np.ndarray, float]:
+    """Centre and radius [m] of a sphere holding every point of ``positions`` (v, 3)."""
+    lo, hi = positions.min(axis=0), positions.max(axis=0)
+    center = 0.5 * (lo + hi)
+    return center, float(np.linalg.norm(hi - lo)) * 0.5 * 1.01 + 1e-6

@@ -1,0 +1,80 @@
+"""Shadows of opaque geometry from directional lights (``motes.render.shadows``)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import motes as mo
+from motes.render.frame import Frame
+from motes.render.geometry import Box, Ground, Sphere, draw_geometry
+from motes.render.shading import AmbientLight, DirectionalLight
+
+# A top view of the ground: 200 px per metre over x in [-0.3, 1.7], z in [-1, 1].
+SIZE, HEIGHT = 400, 2.0
+
+
+def _top_view(objects, light_direction, shadows=True):
+    camera = mo.Camera((0.7, 5.0, 0.0), (0.7, 0.0, 0.0), up=(0, 0, -1),
+                       projection="orthographic", height=HEIGHT,
+                       resolution=(SIZE, SIZE))  # fmt: skip
+    frame = Frame(SIZE, SIZE)
+    lights = [DirectionalLight(light_direction, shadows=shadows), AmbientLight((0.2,) * 3)]
+    draw_geometry(frame, camera, objects, lights=lights, supersample=1)
+    right, up, _ = camera.basis
+    j, i = np.mgrid[0:SIZE, 0:SIZE]
+    offset = (i + 0.5 - SIZE / 2)[..., None] * right + (SIZE / 2 - j - 0.5)[..., None] * up
+    world = camera.position + offset / camera.scale
+    return frame.color[..., 0], world[..., 0], world[..., 2]
+
+
+@pytest.mark.parametrize("tilt", [25.0, 40.0])
+def test_a_spheres_shadow_is_the_ellipse_its_light_casts(tilt):
+    """A sphere (radius R, centre h above the ground) under a light tilted by θ casts an
+    ellipse with semi-axes R / cos θ (along the tilt) and R, centred h tan θ away. Where
+    the sphere does not hide it from above, the shadowed pixels match the ellipse but
+    for the pixels its outline crosses."""
+    t = math.radians(tilt)
+    radius, height = 0.5, 1.0
+    color, x, z = _top_view(
+        [Ground(0.0, color=(1, 1, 1)), Sphere((0, height, 0), radius, subdivisions=5)],
+        (math.sin(t), -math.cos(t), 0.0),
+    )
+    lit = 0.2 + math.cos(t)
+    region = x > radius + 0.02  # beyond the sphere's own disc seen from above
+    shadowed = (color < 0.5 * (0.2 + lit)) & region
+    ex = (x - height * math.tan(t)) * math.cos(t) / radius
+    inside = (ex**2 + (z / radius) ** 2 <= 1.0) & region
+    wrong = np.count_nonzero(shadowed != inside)
+    # The outline crosses about perimeter x 200 px/m pixels; allow one in ten to differ.
+    perimeter = 2 * math.pi * radius * (1 + 1 / math.cos(t)) / 2
+    assert wrong <= 0.1 * perimeter * SIZE / HEIGHT
+    assert np.count_nonzero(inside) > 10_000  # thousands of pixels, not a sliver
+    np.testing.assert_allclose(color[shadowed & ~_near_edge(ex, z / radius)], 0.2, rtol=1e-5)
+    np.testing.assert_allclose(color[region & ~inside & ~_near_edge(ex, z / radius)], lit,
+                               rtol=1e-5)  # fmt: skip
+
+
+def _near_edge(ex, ez):
+    """Pixels within about two pixels of the ellipse's outline (where PCF blends)."""
+    return np.abs(np.sqrt(ex**2 + ez**2) - 1.0) < 0.03
+
+
+def test_without_shadows_nothing_darkens_and_a_box_shadows_itself_correctly():
+    box = Box((0.7, 0.5, 0.0), (0.6, 1.0, 0.6))
+    light = (0.3, -1.0, 0.2)
+    plain, _, _ = _top_view([Ground(0.0, color=(1, 1, 1)), box], light, shadows=False)
+    shaded, x, z = _top_view([Ground(0.0, color=(1, 1, 1)), box], light)
+    # The box's top face is lit either way (it faces the light): no self-shadowing acne.
+    top = (np.abs(x - 0.7) < 0.25) & (np.abs(z) < 0.25)
+    np.testing.assert_array_equal(shaded[top], plain[top])
+    # On the ground, something is darker with shadows, nothing is brighter.
+    assert np.count_nonzero(shaded < plain - 0.1) > 1000
+    assert np.all(shaded <= plain + 1e-6)
+
+
+def test_shadows_flag_is_checked():
+    with pytest.raises(TypeError, match="shadows must be True or False"):
+        DirectionalLight((0, -1, 0), shadows="yes")
