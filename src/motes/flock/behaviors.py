@@ -30,7 +30,8 @@ from enum import IntEnum
 import numpy as np
 
 from .. import _validate as check
-from ..geometry.layout import KIND, ROW, Kind, stack
+from ..collide.colliders import Collider
+from ..collide.contact import pack
 
 #: Floats in a target row: kind, weight, then eight parameters.
 WIDTH = 10
@@ -294,7 +295,8 @@ class AvoidColliders:
     ----------
     colliders : sequence of Collider
         :class:`motes.colliders.Plane`, ``Sphere``, ``Box`` (``inside=True`` for a
-        container) or capsule rows; triangle meshes are not supported.
+        container), ``Capsule`` or ``TriangleMeshCollider`` (a thin shell: each move is
+        swept against it, so no boid crosses it between two steps).
     """
 
     colliders: list = field(default_factory=list)
@@ -303,17 +305,14 @@ class AvoidColliders:
     weight: float = 4.0
 
     def __post_init__(self):
-        rows = []
         for i, c in enumerate(self.colliders):
-            packed = getattr(c, "packed", None)
-            row = packed() if packed is not None else np.asarray(c, dtype=np.float64)
-            if row.shape != (ROW,) or int(row[KIND]) == Kind.MESH:
+            if not isinstance(c, Collider):
                 raise ValueError(
-                    f"colliders[{i}] must be a plane, sphere, box or capsule collider, "
-                    f"got {type(c).__name__}"
+                    f"colliders[{i}] must be a plane, sphere, box, capsule or triangle-mesh "
+                    f"collider, got {type(c).__name__}"
                 )
-            rows.append(row)
-        self.table = stack(rows)
+        #: Packed rows and the meshes' triangles and grid lists (collide.contact.pack).
+        self.table, *self.mesh = pack(self.colliders)
         self.lookahead = check.non_negative("lookahead", self.lookahead)
         self.margin = check.positive("margin", self.margin)
         self.weight = check.non_negative("weight", self.weight)

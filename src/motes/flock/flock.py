@@ -7,6 +7,7 @@ import numpy as np
 from .. import _memory
 from .. import _validate as check
 from .._jit import threads_for
+from ..geometry.layout import ROW
 from ..spatial.grid import UniformGrid
 from ..spatial.kernels import compact_rows
 from ..spatial.neighbors import Neighbors
@@ -249,9 +250,12 @@ class Flock:
             for b in self.interactions:
                 self._interact(b, extra)
             table, path = pack_targets(self.targets)
-            colliders = (
-                self.avoidance.table if self.avoidance is not None else np.zeros((0, 23))
-            ).astype(np.float32)
+            avoid = self.avoidance
+            if avoid is None:
+                colliders = np.zeros((0, ROW), np.float32)
+                mesh = (np.zeros((0, 9)), np.zeros(1, np.int64), np.zeros(0, np.int64))
+            else:
+                colliders, mesh = avoid.table.astype(np.float32), avoid.mesh
             g = self._grid
             pos_out, vel_out, head_out = self._next
             if pos_out.shape != self.position.shape:
@@ -260,7 +264,7 @@ class Flock:
                 ]
             kernels.step(
                 self.position, self.velocity, self.heading, self.ids, g.cell_start, g.origin,
-                1.0 / g.cell, g.dims, self._params(dt), extra, table, path, colliders,
+                1.0 / g.cell, g.dims, self._params(dt), extra, table, path, colliders, *mesh,
                 self.wander, self.bank, self.flap, pos_out, vel_out, head_out,
                 self.neighbor_count,
             )  # fmt: skip

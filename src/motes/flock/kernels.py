@@ -20,7 +20,9 @@ import numpy as np
 from numba import prange
 
 from .._jit import block_bounds, block_count, called, device, parallel_kernel
-from ..geometry.distance import row_signed_distance
+from ..geometry.distance import mesh_distance, row_signed_distance
+from ..geometry.layout import KIND, Kind
+from ..geometry.sweep import mesh_first_hit
 from ..spatial.kernels import cell_coordinate
 
 # Indices into the float64 parameter vector of :func:`step`.
@@ -175,7 +177,7 @@ def _follow_path(ax, ay, az, x, y, z, vx, vy, vz, w, table, k, path, max_speed):
 
 
 @called
-def _avoid(x, y, z, vx, vy, vz, hx, hy, hz, colliders, p, max_speed):
+def _avoid(x, y, z, vx, vy, vz, hx, hy, hz, colliders, mesh, p, max_speed):
     """Obstacle avoidance acceleration [m/s²]: probe ahead, steer sideways; push out
     when already within the margin. Also whether a collider is near enough that the
     step's move may bring the boid within its radius (then the keep-out runs)."""
@@ -193,7 +195,7 @@ def _avoid(x, y, z, vx, vy, vz, hx, hy, hz, colliders, p, max_speed):
     near = False
     qx, qy, qz = x + vx * ahead, y + vy * ahead, z + vz * ahead
     for c in range(colliders.shape[0]):
-        d, nx, ny, nz = row_signed_distance(colliders, c, x, y, z, one)
+        d, nx, ny, nz = _distance(colliders, c, mesh, x, y, z, x, y, z, reach + near_by)
         near |= d < near_by
         if d >= reach:
             continue
@@ -202,7 +204,7 @@ def _avoid(x, y, z, vx, vy, vz, hx, hy, hz, colliders, p, max_speed):
             ax += s * nx
             ay += s * ny
             az += s * nz
-        d, nx, ny, nz = row_signed_distance(colliders, c, qx, qy, qz, one)
+        d, nx, ny, nz = _distance(colliders, c, mesh, qx, qy, qz, x, y, z, margin)
         if d < margin:
             along = nx * hx + ny * hy + nz * hz
             lx, ly, lz = nx - along * hx, ny - along * hy, nz - along * hz
@@ -217,13 +219,51 @@ def _avoid(x, y, z, vx, vy, vz, hx, hy, hz, colliders, p, max_speed):
     return ax, ay, az, near
 
 
+#: Kind code of a triangle-mesh row.
+MESH = int(Kind.MESH)
+
+
+@device
+def _distance(colliders, c, mesh, x, y, z, sx, sy, sz, reach):
+    """Signed distance [m] and unit normal (float32) from a boid at (x, y, z) to collider
+    row ``c``: analytic for shapes; for a triangle mesh (a thin two-sided shell) through
+    its grid, on the side of (sx, sy, sz), and +inf beyond ``reach`` [m]."""
+    if int(colliders[c, KIND]) == MESH:
+        tri, cell_start, cell_tris = mesh
+        d, nx, ny, nz = mesh_distance(
+            colliders[c], tri, cell_start, cell_tris, np.float64(x), np.float64(y),
+            np.float64(z), np.float64(sx), np.float64(sy), np.float64(sz), np.float64(reach),
+        )  # fmt: skip
+        return np.float32(min(d, 1e30)), np.float32(nx), np.float32(ny), np.float32(nz)
+    return row_signed_distance(colliders, c, x, y, z, np.float32(1.0))
+
+
 @called
-def _keep_out(x, y, z, vx, vy, vz, colliders, radius):
+def _keep_out(x0, y0, z0, x, y, z, vx, vy, vz, colliders, mesh, radius):
     """The position put back on each collider's surface grown by ``radius`` and the
-    velocity into it removed."""
+    velocity into it removed. A triangle mesh is a shell a boid could cross within one
+    step: the move from (x0, y0, z0) is swept against it first, and stops where it
+    comes within ``radius``."""
+    tri, cell_start, cell_tris = mesh
+    for c in range(colliders.shape[0]):
+        if int(colliders[c, KIND]) != MESH:
+            continue
+        dx, dy, dz = x - x0, y - y0, z - z0
+        f, nx, ny, nz, _ = mesh_first_hit(
+            colliders[c], tri, cell_start, cell_tris, np.float64(x0), np.float64(y0),
+            np.float64(z0), np.float64(dx), np.float64(dy), np.float64(dz), np.float64(radius),
+        )  # fmt: skip
+        if f < 1.0:
+            f32 = np.float32(max(f, 0.0))
+            x, y, z = x0 + f32 * dx, y0 + f32 * dy, z0 + f32 * dz
+            gx, gy, gz = np.float32(nx), np.float32(ny), np.float32(nz)
+            vn = min(vx * gx + vy * gy + vz * gz, np.float32(0.0))
+            vx -= vn * gx
+            vy -= vn * gy
+            vz -= vn * gz
     for _ in range(2):  # a second pass settles a boid pushed out of one shape into another
         for c in range(colliders.shape[0]):
-            d, nx, ny, nz = row_signed_distance(colliders, c, x, y, z, np.float32(1.0))
+            d, nx, ny, nz = _distance(colliders, c, mesh, x, y, z, x0, y0, z0, radius)
             if d < radius:
                 depth = radius - d
                 x += nx * depth
@@ -239,7 +279,8 @@ def _keep_out(x, y, z, vx, vy, vz, colliders, radius):
 @parallel_kernel
 def step(
     pos, vel, head, ident, cell_start, origin, inv_cell, dims, p, extra, table, path,
-    colliders, wander, bank, flap, pos_out, vel_out, head_out, neighbors,
+    colliders, mesh_tri, mesh_cell_start, mesh_cell_tris, wander, bank, flap, pos_out, vel_out,
+    head_out, neighbors,
 ):  # fmt: skip
     """One step of every boid: rules, behaviours, limits, move, colliders.
 
@@ -259,6 +300,9 @@ def step(
         Target rows and path points (:mod:`motes.flock.behaviors`).
     colliders : (c, ROW) float32
         Collider rows to avoid and keep out of.
+    mesh_tri, mesh_cell_start, mesh_cell_tris
+        The triangles and grid lists of the mesh rows
+        (:func:`motes.collide.contact.pack`).
     wander : (3, n) float32
         Wander directions, read and written.
     bank, flap : (n,) float32
@@ -270,6 +314,7 @@ def step(
     """
     zero = np.float32(0.0)
     one = np.float32(1.0)
+    mesh = (mesh_tri, mesh_cell_start, mesh_cell_tris)
     nx_, ny_, nz_ = dims[0], dims[1], dims[2]
     sep_r2, ali_r2, coh_r2 = np.float32(p[SEP_R2]), np.float32(p[ALI_R2]), np.float32(p[COH_R2])
     sep_cos, ali_cos, coh_cos = (
@@ -427,7 +472,7 @@ def step(
                 near = False
                 if colliders.shape[0] > 0:
                     tx, ty, tz, near = _avoid(
-                        x, y, z, vx, vy, vz, hx, hy, hz, colliders, p, max_speed
+                        x, y, z, vx, vy, vz, hx, hy, hz, colliders, mesh, p, max_speed
                     )
                     ax += tx
                     ay += ty
@@ -462,7 +507,9 @@ def step(
                 wx, wy, wz = ux * speed, uy * speed, uz * speed
                 nx, ny, nz = x + wx * dt, y + wy * dt, z + wz * dt
                 if near:
-                    nx, ny, nz, wx, wy, wz = _keep_out(nx, ny, nz, wx, wy, wz, colliders, radius)
+                    nx, ny, nz, wx, wy, wz = _keep_out(
+                        x, y, z, nx, ny, nz, wx, wy, wz, colliders, mesh, radius
+                    )
                     s2 = wx * wx + wy * wy + wz * wz
                     if s2 > np.float32(1e-12):
                         s = one / np.sqrt(s2)

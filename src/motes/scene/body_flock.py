@@ -19,7 +19,6 @@ from __future__ import annotations
 import numpy as np
 
 from .. import flock as fl
-from ..collide import TriangleMeshCollider
 from ..flock.meshes import BIRD, FISH, faces, vertices
 from ..render import geometry
 from ..render.shading import Material
@@ -293,13 +292,6 @@ def build_flock(table: Table, context: BuildContext) -> FlockBody:
     )
     flock.add(*_targets(table))
     if table.get("colliders", boolean, True) and context.colliders:
-        for collider in context.colliders:
-            if isinstance(collider, TriangleMeshCollider):
-                raise SceneError(
-                    table.key_path("colliders"),
-                    "flocks avoid planes, spheres, boxes and capsules, not the scene's "
-                    "triangle-mesh collider; set colliders = false",
-                )
         flock.add(
             build(
                 table.path,

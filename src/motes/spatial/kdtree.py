@@ -29,39 +29,29 @@ from .tree import SpatialTree
 
 
 @device
-def _key(sx, sy, sz, axis, i):
-    if axis == 0:
-        return sx[i]
-    if axis == 1:
-        return sy[i]
-    return sz[i]
-
-
-@device
-def _swap(sx, sy, sz, order, i, j):
-    sx[i], sx[j] = sx[j], sx[i]
-    sy[i], sy[j] = sy[j], sy[i]
-    sz[i], sz[j] = sz[j], sz[i]
+def _swap(key, a, b, order, i, j):
+    key[i], key[j] = key[j], key[i]
+    a[i], a[j] = a[j], a[i]
+    b[i], b[j] = b[j], b[i]
     order[i], order[j] = order[j], order[i]
 
 
 @device
-def _select(sx, sy, sz, order, axis, lo, hi, kth):
+def _select(key, a, b, order, lo, hi, kth):
     """Rearrange slots ``[lo, hi]`` so that slot ``kth`` holds the point it would hold
-    sorted along ``axis``, with no greater coordinate before it and no lesser after."""
+    sorted by ``key``, with no greater key before it and no lesser after; ``a``, ``b``
+    (the other coordinates) and ``order`` move with it."""
     while hi > lo:
-        a = _key(sx, sy, sz, axis, lo)
-        b = _key(sx, sy, sz, axis, (lo + hi) // 2)
-        c = _key(sx, sy, sz, axis, hi)
-        pivot = max(min(a, b), min(max(a, b), c))  # the median of the three
+        x, y, z = key[lo], key[(lo + hi) // 2], key[hi]
+        pivot = max(min(x, y), min(max(x, y), z))  # the median of the three
         i, j = lo, hi
         while i <= j:
-            while _key(sx, sy, sz, axis, i) < pivot:
+            while key[i] < pivot:
                 i += 1
-            while _key(sx, sy, sz, axis, j) > pivot:
+            while key[j] > pivot:
                 j -= 1
             if i <= j:
-                _swap(sx, sy, sz, order, i, j)
+                _swap(key, a, b, order, i, j)
                 i += 1
                 j -= 1
         # Now [lo, j] <= pivot, [i, hi] >= pivot, and anything between equals it.
@@ -93,8 +83,14 @@ def _split_level(sx, sy, sz, order, start, count, first, width):
             z0 = min(z0, sz[s])
             z1 = max(z1, sz[s])
         ex, ey, ez = x1 - x0, y1 - y0, z1 - z0
-        axis = 0 if ex >= ey and ex >= ez else (1 if ey >= ez else 2)
-        _select(sx, sy, sz, order, axis, s0, s0 + c - 1, s0 + c // 2)
+        last, kth = s0 + c - 1, s0 + c // 2
+        # The key array passed first, so the selection's inner loops read one array.
+        if ex >= ey and ex >= ez:
+            _select(sx, sy, sz, order, s0, last, kth)
+        elif ey >= ez:
+            _select(sy, sx, sz, order, s0, last, kth)
+        else:
+            _select(sz, sx, sy, order, s0, last, kth)
 
 
 class KDTree(SpatialTree):
