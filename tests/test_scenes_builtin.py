@@ -28,10 +28,11 @@ def check_common(scene):
 # The costliest scenes to compile and run (30-100 s each from an empty kernel cache);
 # each keeps a scene test of its own in the default run or the slow tier.
 # rain, waterfall and fish_school keep tests of their own (test_rain_*, test_waterfall_*,
-# test_flock_scene).
+# test_flock_scene); planets' placements and light are tested in test_nbody and
+# test_scene_files.
 SLOW_SCENES = {
     "floating", "rain_on_flag", "explosion", "box_tower", "galaxies", "rain", "fish_school",
-    "waterfall",
+    "waterfall", "planets",
 }  # fmt: skip
 
 
