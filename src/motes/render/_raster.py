@@ -33,7 +33,8 @@ import numpy as np
 
 from .._jit import block_bounds, block_count, device, parallel_kernel, serial_kernel
 from .camera import EYE, FAR, FORWARD, HEIGHT, NEAR, ORTHO, RIGHT, SCALE, UP, WIDTH
-from .shading import CHECKER_COLOR, CHECKER_DENSITY, FLAT, SPECULAR, checker_fraction, shade
+from .lighting import shade
+from .shading import CHECKER_COLOR, CHECKER_DENSITY, FLAT, SPECULAR, checker_fraction
 from .tiles import TILE
 
 # One screen-triangle corner: sample position, perspective weight q, view depth [m] and
@@ -413,7 +414,7 @@ def _face_barycentrics(tri, slot, px, py):
 @device
 def _shade_at(
     cam, pixel_size, slot, px, py, tri, tri_face, tri_facing, positions, normals, colors,
-    faces, face_surface, face_normal, surfaces, lights, ambient, shadow_cams, shadow_maps,
+    faces, face_surface, face_normal, surfaces, lights, ambient, shadowing,
 ):  # fmt: skip
     """Radiance (r, g, b) of the surface of screen triangle ``slot`` seen at sample (px, py).
 
@@ -480,9 +481,8 @@ def _shade_at(
             g += k * (surfaces[s, CHECKER_COLOR + 1] - g)
             bl += k * (surfaces[s, CHECKER_COLOR + 2] - bl)
     return shade(
-        nx, ny, nz, vx, vy, vz, wx, wy, wz, r, g, bl, surfaces, s, lights, ambient, shadow_cams,
-        shadow_maps,
-    )  # fmt: skip
+        nx, ny, nz, vx, vy, vz, wx, wy, wz, r, g, bl, surfaces, s, lights, ambient, shadowing
+    )
 
 
 @serial_kernel
@@ -549,7 +549,7 @@ def _draw_line(lines, s, seg_colors, ox, oy, sw, sh, far, zbuf, cbuf, touched, s
 def _draw_tile(
     cam, pixel_size, ss, t, starts, items, tiles_x, tri_count, tri, tri_face, tri_facing,
     positions, normals, colors, faces, face_surface, face_normal, surfaces, lights, ambient,
-    shadow_cams, shadow_maps, lines, seg_colors, color, depth,
+    shadowing, lines, seg_colors, color, depth,
 ):  # fmt: skip
     """Draw tile ``t`` (see :func:`draw_tiles`), whose parallel loop stays a thin wrapper."""
     height, width = depth.shape
@@ -619,8 +619,7 @@ def _draw_tile(
                         r, g, b = _shade_at(
                             cam, pixel_size, slot, ox + i + 0.5, oy + j + 0.5, tri,
                             tri_face, tri_facing, positions, normals, colors, faces,
-                            face_surface, face_normal, surfaces, lights, ambient, shadow_cams,
-                            shadow_maps,
+                            face_surface, face_normal, surfaces, lights, ambient, shadowing,
                         )  # fmt: skip
                         hit = cached
                         cached_slot[hit] = slot
@@ -674,8 +673,8 @@ def _draw_tile(
 @parallel_kernel
 def draw_tiles(
     cam, ss, starts, items, tiles_x, tri_count, tri, tri_face, tri_facing, positions, normals,
-    colors, faces, face_surface, face_normal, surfaces, lights, ambient, shadow_cams,
-    shadow_maps, lines, seg_colors, color, depth,
+    colors, faces, face_surface, face_normal, surfaces, lights, ambient, shadowing, lines,
+    seg_colors, color, depth,
 ):  # fmt: skip
     """Draw every tile's triangles, then its lines, and resolve into the frame.
 
@@ -698,5 +697,5 @@ def draw_tiles(
         _draw_tile(
             cam, pixel_size, ss, t, starts, items, tiles_x, tri_count, tri, tri_face,
             tri_facing, positions, normals, colors, faces, face_surface, face_normal, surfaces,
-            lights, ambient, shadow_cams, shadow_maps, lines, seg_colors, color, depth,
+            lights, ambient, shadowing, lines, seg_colors, color, depth,
         )  # fmt: skip

@@ -27,18 +27,8 @@ from ..geometry.mesh import TriangleMesh
 from ._raster import CORNER, LINE_SIZE, draw_tiles, project_vertices, setup_lines, setup_triangles
 from .camera import Camera
 from .frame import Frame
-from .shading import (
-    LIGHT_SHADOW,
-    SURFACE_SIZE,
-    AmbientLight,
-    DirectionalLight,
-    Material,
-    PointLight,
-    default_lights,
-    pack_lights,
-    rgb,
-    surface_row,
-)
+from .shading import SURFACE_SIZE, Material, rgb, surface_row
+from .shadows import Shadowing, prepare
 from .tiles import bin_boxes
 
 __all__ = ["Box", "Capsule", "Ground", "Lines", "Mesh", "Sphere", "draw_geometry"]
@@ -498,7 +488,13 @@ class Lines:
 
 
 def draw_geometry(
-    frame: Frame, camera: Camera, objects, *, lights=None, supersample: int = 2
+    frame: Frame,
+    camera: Camera,
+    objects,
+    *,
+    lights=None,
+    supersample: int = 2,
+    shadowing: Shadowing | None = None,
 ) -> None:
     """Draw opaque objects into ``frame``, depth-tested against and writing ``frame.depth``.
 
@@ -519,6 +515,10 @@ def draw_geometry(
         and the *minimum* of their depths, so a particle near a silhouette is compared
         with (and soft-faded against) the nearest surface in its pixel. Pixels no sample
         of which was drawn are left exactly as they were.
+    shadowing : Shadowing, optional
+        The lights with their shadow and opacity maps for this frame
+        (:func:`motes.render.shadows.prepare`); by default made here from ``lights`` and
+        the objects that cast shadows.
 
     Notes
     -----
@@ -539,7 +539,6 @@ def draw_geometry(
     ss = check.integer("supersample", supersample, low=1)
     if ss > 4:
         raise ValueError(f"supersample must be <= 4, got {supersample}")
-    directional, ambient = pack_lights(lights)
     sets, line_sets = [], []
     for i, obj in enumerate(objects):
         if isinstance(obj, Lines):
@@ -553,8 +552,8 @@ def draw_geometry(
             )
     positions, normals, colors, faces, face_surface, surfaces = _combine(sets)
     ends, seg_colors, widths = _combine_lines(line_sets)
-    casters = [o for o in objects if isinstance(o, (Sphere, Spheres, Capsule, Box, Mesh))]
-    shadow_cams, shadow_maps = _shadow_maps(lights, directional, casters, camera)
+    if shadowing is None:
+        shadowing = prepare(lights, casters(objects), camera)
 
     cam = camera.packed()
     view = np.empty_like(positions)
@@ -576,38 +575,14 @@ def draw_geometry(
     bins = bin_boxes(box[0], box[1], box[2], box[3], frame.width, frame.height)
     draw_tiles(
         cam, ss, bins.starts, bins.items, bins.tiles_x, slots, tri, tri_face, tri_facing,
-        positions, normals, colors, faces, face_surface, face_normal, surfaces, directional,
-        ambient, shadow_cams, shadow_maps, lines, seg_colors, frame.color, frame.depth,
+        positions, normals, colors, faces, face_surface, face_normal, surfaces, shadowing.lights,
+        shadowing.ambient, shadowing.arrays, lines, seg_colors, frame.color, frame.depth,
     )  # fmt: skip
 
 
-def _shadow_maps(lights, packed, casters, camera):
-    """Depth maps of ``casters`` seen by each directional light that casts shadows, and
-    their packed cameras; writes each light's map index into its row of ``packed``.
-
-    Returns ``(cams (m, PACKED_SIZE), maps (m, R, R) float32)``; m may be 0.
-    """
-    from .camera import PACKED_SIZE
-    from .frame import Frame
-    from .shadows import RESOLUTION, casters_sphere, light_camera
-
-    if lights is None or isinstance(lights, (DirectionalLight, PointLight, AmbientLight)):
-        lights = default_lights() if lights is None else [lights]
-    rows = [x for x in lights if isinstance(x, (DirectionalLight, PointLight))]
-    shadowed = [k for k, x in enumerate(rows) if isinstance(x, DirectionalLight) and x.shadows]
-    if not shadowed or not casters:
-        return np.zeros((0, PACKED_SIZE)), np.ones((0, 1, 1), np.float32)
-    points = np.concatenate([o.triangles(camera).positions for o in casters])
-    center, radius = casters_sphere(points)
-    cams, maps = [], []
-    for k in shadowed:
-        view = light_camera(rows[k].direction, center, radius)
-        depth = Frame(RESOLUTION, RESOLUTION)
-        draw_geometry(depth, view, casters, lights=[AmbientLight((0, 0, 0))], supersample=1)
-        packed[k, LIGHT_SHADOW] = len(maps)
-        cams.append(view.packed())
-        maps.append(depth.depth)
-    return np.stack(cams), np.stack(maps)
+def casters(objects) -> list:
+    """The objects that cast shadows: everything opaque but grounds and lines."""
+    return [o for o in objects if isinstance(o, (Sphere, Spheres, Capsule, Box, Mesh))]
 
 
 def _combine(sets: list[TriangleSet]):

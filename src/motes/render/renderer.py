@@ -21,7 +21,9 @@ from ..state import ParticleState, as_state
 from .background import Background
 from .camera import Camera
 from .frame import Frame
-from .geometry import draw_geometry
+from .geometry import casters, draw_geometry
+from .lighting import light_particles
+from .shadows import prepare
 from .sprites import Blend, SpriteRasterizer, SpriteStyle
 from .tonemap import to_srgb8
 
@@ -111,11 +113,18 @@ class Renderer:
         width, height = self.camera.resolution
         frame = Frame(width, height)
         self.background.fill(frame)
+        items = self._draw_order(systems)
+        objects = list(objects)
+        shadowing = None
+        if objects or any(style.lit for _, _, style in items):
+            casting = [_opacity_of(state) for _, state, style in items if style.shadows]
+            shadowing = prepare(self.lights, casters(objects), self.camera, casting)
         if objects:
             draw_geometry(
-                frame, self.camera, list(objects), lights=self.lights, supersample=self.supersample
-            )
-        for owner, state, style in self._draw_order(systems):
+                frame, self.camera, objects, lights=self.lights, supersample=self.supersample,
+                shadowing=shadowing,
+            )  # fmt: skip
+        for owner, state, style in items:
             # Keyed by the object passed in (a system lives across frames; a state is
             # taken anew each frame): its rasteriser keeps its scratch buffers.
             key = (id(owner), id(style))
@@ -124,7 +133,8 @@ class Renderer:
                 if len(self._rasterizers) > 64:
                     self._rasterizers.clear()
                 rasterizer = self._rasterizers[key] = SpriteRasterizer(style)
-            draw_system(frame, self.camera, state, rasterizer)
+            colors = _lit_colors(state, shadowing) if style.lit else None
+            draw_system(frame, self.camera, state, rasterizer, colors=colors)
         return frame
 
     def render(self, systems=(), objects=()) -> np.ndarray:
@@ -152,11 +162,38 @@ class Renderer:
         return [alpha[k] for k in order] + additive
 
 
-def draw_system(frame: Frame, camera: Camera, particles, rasterizer: SpriteRasterizer) -> int:
+def _colors(state: ParticleState) -> np.ndarray:
+    """(n, 4) RGBA of a state's particles (white without a ``color`` field)."""
+    if "color" in state:
+        return state["color"].T
+    return np.broadcast_to(_WHITE, (state.count, 4))
+
+
+def _opacity_of(state: ParticleState) -> tuple:
+    """What an opacity map needs of shadow-casting particles: positions (n, 3), radius
+    (n,), alpha (n,)."""
+    return state.positions.T, np.asarray(state.radius), _colors(state)[:, 3]
+
+
+def _lit_colors(state: ParticleState, shadowing) -> np.ndarray:
+    """The particles' colours lit by the frame's lights (:func:`light_particles`)."""
+    rgba = np.array(_colors(state), dtype=np.float32)
+    rgb = np.ascontiguousarray(rgba[:, :3])
+    out = np.empty_like(rgb)
+    x, y, z = (np.ascontiguousarray(r, dtype=np.float64) for r in state.positions)
+    light_particles(shadowing.lights, shadowing.ambient, shadowing.arrays, x, y, z, rgb, out)
+    rgba[:, :3] = out
+    return rgba
+
+
+def draw_system(
+    frame: Frame, camera: Camera, particles, rasterizer: SpriteRasterizer, *, colors=None
+) -> int:
     """Draw particles (a :class:`~motes.state.ParticleState` or anything with
     ``particle_state()``); returns the number drawn.
 
-    Colour comes from the state's ``color`` field (white without one), the sprite
+    Colour comes from ``colors`` (n, 4) when given, else the state's ``color`` field
+    (white without one), the sprite
     radius from ``radius``, the texture angle from ``rotation`` when the style has a
     texture, the streak from ``velocities`` when it has a shutter. The rasteriser takes
     ``(n, c)`` arrays: the state's ``(c, n)`` rows are passed transposed, without a copy.
@@ -166,7 +203,7 @@ def draw_system(frame: Frame, camera: Camera, particles, rasterizer: SpriteRaste
     n = state.count
     if n == 0:
         return 0
-    colors = state["color"].T if "color" in state else np.broadcast_to(_WHITE, (n, 4))
+    colors = _colors(state) if colors is None else colors
     rotation = state["rotation"] if "rotation" in state and style.texture is not None else None
     velocities = state.velocities.T if style.shutter > 0 else None
     return rasterizer.draw(

@@ -1,34 +1,17 @@
-"""Lights and surface shading of opaque geometry, in linear light.
+"""Lights, materials and surface rows of opaque geometry, packed for the kernels.
 
-The shading model, per sample with unit normal ``n`` (turned toward the viewer), unit
-direction to the viewer ``v``, albedo ``c`` and, for each light, unit direction toward
-the light ``l`` and radiance ``L`` (a directional light's is constant; a point light's
-``l`` points from the sample to the light and its ``L`` falls off as ``1/d²`` with the
-distance ``d``, unless it is made not to):
-
-.. math::
-
-    C = E + c \\odot \\Big(A(n) + \\sum_l L \\max(0, n \\cdot l)\\Big)
-          + k_s \\sum_l L \\max(0, n \\cdot h)^{s} [n \\cdot l > 0],
-    \\qquad h = \\frac{l + v}{\\lVert l + v \\rVert}
-
-Lambert diffuse without the 1/π (a white surface facing a light of intensity 1 reflects
-1), a hemisphere ambient :math:`A(n) = G + (S - G)(1 + n_y)/2` between a ground colour
-``G`` and a sky colour ``S`` (Lambert-weighted sky light, as in three.js'
-``HemisphereLight``), and Blinn-Phong highlights (Blinn 1977) with strength ``k_s`` and
-exponent ``s``, white, not tinted by the albedo. ``E`` is the emission.
+Lights: :class:`DirectionalLight` (optionally casting shadows), :class:`PointLight`,
+:class:`AmbientLight`; :func:`pack_lights` turns them into the rows the shading kernels
+read. The shading model itself is in :mod:`motes.render.lighting`.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
 from .. import _validate as check
 from .._jit import device
 from ..color import parse_color
-from .shadows import visibility
 
 # Layout of one surface row (float64) that the rasteriser reads per object: Blinn-Phong
 # strength and exponent, emission, flat-shading flag, checker colour and checker cells
@@ -39,10 +22,11 @@ SURFACE_SIZE = 10
 # Layout of one packed light: unit direction toward the light (directional), radiance,
 # position (point), a point-light flag (1: point, 0: directional), whether a point light
 # falls off with the square of the distance, and the index of the light's shadow map (-1:
-# none; :mod:`motes.render.shadows`).
+# none; :mod:`motes.render.shadows`) and of its particles' opacity map (-1: none;
+# :mod:`motes.render.opacity`).
 LIGHT_DIRECTION, LIGHT_RADIANCE, LIGHT_POSITION, LIGHT_POINT, LIGHT_FALLOFF = 0, 3, 6, 9, 10
-LIGHT_SHADOW = 11
-LIGHT_SIZE = 12
+LIGHT_SHADOW, LIGHT_OPACITY = 11, 12
+LIGHT_SIZE = 13
 
 
 def rgb(name: str, value) -> np.ndarray:
@@ -209,7 +193,7 @@ def pack_lights(lights) -> tuple[np.ndarray, np.ndarray]:
     for i, light in enumerate(lights):
         if isinstance(light, (DirectionalLight, PointLight)):
             row = np.zeros(LIGHT_SIZE)
-            row[LIGHT_SHADOW] = -1.0
+            row[LIGHT_SHADOW] = row[LIGHT_OPACITY] = -1.0
             row[LIGHT_RADIANCE : LIGHT_RADIANCE + 3] = light.color * light.intensity
             if isinstance(light, DirectionalLight):
                 row[LIGHT_DIRECTION : LIGHT_DIRECTION + 3] = -light.direction
@@ -255,73 +239,3 @@ def checker_fraction(u, w, size):
     iu = (_checker_integral(u - 0.5 * size) - _checker_integral(u + 0.5 * size)) * scale
     iw = (_checker_integral(w - 0.5 * size) - _checker_integral(w + 0.5 * size)) * scale
     return 0.5 - 0.5 * iu * iw
-
-
-@device
-def shade(
-    nx, ny, nz, vx, vy, vz, wx, wy, wz, r, g, b, surfaces, s, lights, ambient, shadow_cams,
-    shadow_maps,
-):  # fmt: skip
-    """Outgoing radiance (r, g, b) of a surface sample (see the module docstring).
-
-    ``(nx, ny, nz)`` and ``(vx, vy, vz)`` are the unit normal and unit direction to the
-    viewer, ``(wx, wy, wz)`` the sample's world position [m] (for point lights),
-    ``(r, g, b)`` the albedo, ``surfaces[s]`` the surface row (passed as table and
-    index: slicing a row out would cost a reference-count update per sample), ``lights``
-    the packed lights, ``ambient`` the packed (sky, ground) ambient, and
-    ``shadow_cams``/``shadow_maps`` the packed light cameras and depth maps of the lights
-    that cast shadows (:mod:`motes.render.shadows`).
-    """
-    up = 0.5 * (1.0 + ny)
-    dr = ambient[3] + (ambient[0] - ambient[3]) * up
-    dg = ambient[4] + (ambient[1] - ambient[4]) * up
-    db = ambient[5] + (ambient[2] - ambient[5]) * up
-    sr = 0.0
-    sg = 0.0
-    sb = 0.0
-    ks = surfaces[s, SPECULAR]
-    for k in range(lights.shape[0]):
-        lx = lights[k, LIGHT_DIRECTION]
-        ly = lights[k, LIGHT_DIRECTION + 1]
-        lz = lights[k, LIGHT_DIRECTION + 2]
-        scale = 1.0
-        if lights[k, LIGHT_POINT] > 0.5:
-            lx = lights[k, LIGHT_POSITION] - wx
-            ly = lights[k, LIGHT_POSITION + 1] - wy
-            lz = lights[k, LIGHT_POSITION + 2] - wz
-            d2 = max(lx * lx + ly * ly + lz * lz, 1e-12)
-            inv = 1.0 / math.sqrt(d2)
-            lx *= inv
-            ly *= inv
-            lz *= inv
-            if lights[k, LIGHT_FALLOFF] > 0.5:
-                scale = 1.0 / d2
-        cos_l = (nx * lx + ny * ly + nz * lz) * scale
-        if cos_l <= 0.0:
-            continue
-        shadow = int(lights[k, LIGHT_SHADOW])
-        if shadow >= 0:
-            seen = visibility(shadow_cams, shadow_maps, shadow, nx, ny, nz, wx, wy, wz)
-            if seen <= 0.0:
-                continue
-            scale *= seen
-            cos_l *= seen
-        dr += lights[k, LIGHT_RADIANCE] * cos_l
-        dg += lights[k, LIGHT_RADIANCE + 1] * cos_l
-        db += lights[k, LIGHT_RADIANCE + 2] * cos_l
-        if ks > 0.0:
-            hx = lx + vx
-            hy = ly + vy
-            hz = lz + vz
-            h = math.sqrt(hx * hx + hy * hy + hz * hz)
-            cos_h = (nx * hx + ny * hy + nz * hz) / max(h, 1e-12)
-            if cos_h > 0.0:
-                spec = ks * scale * cos_h ** surfaces[s, SHININESS]
-                sr += lights[k, LIGHT_RADIANCE] * spec
-                sg += lights[k, LIGHT_RADIANCE + 1] * spec
-                sb += lights[k, LIGHT_RADIANCE + 2] * spec
-    return (
-        surfaces[s, EMISSION] + r * dr + sr,
-        surfaces[s, EMISSION + 1] + g * dg + sg,
-        surfaces[s, EMISSION + 2] + b * db + sb,
-    )

@@ -19,11 +19,21 @@ keeps lit surfaces from shadowing themselves ("shadow acne").
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from .._jit import called
-from .camera import EYE, FORWARD, HEIGHT, RIGHT, SCALE, UP, WIDTH, Camera
+from .._jit import called, device
+from .camera import EYE, FORWARD, HEIGHT, PACKED_SIZE, RIGHT, SCALE, UP, WIDTH, Camera
+from .shading import (
+    LIGHT_OPACITY,
+    LIGHT_SHADOW,
+    AmbientLight,
+    DirectionalLight,
+    PointLight,
+    default_lights,
+    pack_lights,
+)
 
 #: Texels of each shadow map side.
 RESOLUTION = 2048
@@ -47,6 +57,24 @@ def light_camera(direction, center, radius: float, resolution: int = RESOLUTION)
     )  # fmt: skip
 
 
+@device
+def light_texel(cam, x, y, z):
+    """Texel coordinates ``(u, v)`` (texel ``(j, i)`` centred at ``(i + 0.5, j + 0.5)``,
+    so ``u = i`` at its centre) and depth [m] of a world point in a light's orthographic
+    view ``cam`` (packed)."""
+    dx = x - cam[EYE]
+    dy = y - cam[EYE + 1]
+    dz = z - cam[EYE + 2]
+    right = dx * cam[RIGHT] + dy * cam[RIGHT + 1] + dz * cam[RIGHT + 2]
+    up = dx * cam[UP] + dy * cam[UP + 1] + dz * cam[UP + 2]
+    depth = dx * cam[FORWARD] + dy * cam[FORWARD + 1] + dz * cam[FORWARD + 2]
+    return (
+        0.5 * cam[WIDTH] + cam[SCALE] * right - 0.5,
+        0.5 * cam[HEIGHT] - cam[SCALE] * up - 0.5,
+        depth,
+    )
+
+
 # Called rather than inlined: the shading device function is inlined into the tile
 # kernel, and inlining this loop too would lengthen that kernel's compile for no speed.
 @called
@@ -54,16 +82,8 @@ def visibility(cams, maps, index, nx, ny, nz, wx, wy, wz):
     """Fraction in [0, 1] of light ``index``'s shadow map that sees the point
     ``(wx, wy, wz)`` [m] with unit normal ``n`` (see the module docstring)."""
     cam = cams[index]
-    dx = wx - cam[EYE]
-    dy = wy - cam[EYE + 1]
-    dz = wz - cam[EYE + 2]
-    x = dx * cam[RIGHT] + dy * cam[RIGHT + 1] + dz * cam[RIGHT + 2]
-    y = dx * cam[UP] + dy * cam[UP + 1] + dz * cam[UP + 2]
-    z = dx * cam[FORWARD] + dy * cam[FORWARD + 1] + dz * cam[FORWARD + 2]
     size = maps.shape[1]
-    # Texel coordinates of the point (texel (j, i) has its centre at (i + 0.5, j + 0.5)).
-    u = 0.5 * cam[WIDTH] + cam[SCALE] * x - 0.5
-    v = 0.5 * cam[HEIGHT] - cam[SCALE] * y - 0.5
+    u, v, z = light_texel(cam, wx, wy, wz)
     if u < -0.5 or v < -0.5 or u > size - 0.5 or v > size - 0.5:
         return 1.0
     texel = 1.0 / cam[SCALE]
@@ -96,6 +116,75 @@ def visibility(cams, maps, index, nx, ny, nz, wx, wy, wz):
             if reference <= maps[index, j, i]:
                 lit += w
     return lit / total
+
+
+@dataclass
+class Shadowing:
+    """The lights of one frame with their shadow and opacity maps, as the kernels take
+    them: ``lights`` (packed rows whose ``LIGHT_SHADOW`` / ``LIGHT_OPACITY`` columns
+    index the maps), ``ambient`` (6,), and ``arrays`` = ``(shadow_cams (m, PACKED_SIZE),
+    shadow_maps (m, R, R) float32, opacity_cams (o, PACKED_SIZE), opacity_maps
+    (o, GRID, GRID, SLICES + 1) float32, opacity_depth (o, 2))``."""
+
+    lights: np.ndarray
+    ambient: np.ndarray
+    arrays: tuple
+
+
+def prepare(lights, casters, camera, particles=()) -> Shadowing:
+    """Shadow maps of opaque ``casters`` and opacity maps of ``particles`` for every
+    directional light that casts shadows.
+
+    ``casters``: geometry objects that cast shadows; ``particles``: ``(positions (n, 3),
+    radius (n,), alpha (n,))`` of particle systems that cast shadows.
+    """
+    from .frame import Frame
+    from .geometry import draw_geometry
+    from .opacity import GRID, SLICES, opacity_map
+
+    packed, ambient = pack_lights(lights)
+    if lights is None or isinstance(lights, (DirectionalLight, PointLight, AmbientLight)):
+        lights = default_lights() if lights is None else [lights]
+    rows = [x for x in lights if isinstance(x, (DirectionalLight, PointLight))]
+    shadowed = [k for k, x in enumerate(rows) if isinstance(x, DirectionalLight) and x.shadows]
+    cams, maps, o_cams, o_maps, o_depth = [], [], [], [], []
+    if shadowed and casters:
+        points = np.concatenate([o.triangles(camera).positions for o in casters])
+        center, radius = casters_sphere(points)
+        for k in shadowed:
+            view = light_camera(rows[k].direction, center, radius)
+            depth = Frame(RESOLUTION, RESOLUTION)
+            draw_geometry(depth, view, casters, lights=[AmbientLight((0, 0, 0))], supersample=1)
+            packed[k, LIGHT_SHADOW] = len(maps)
+            cams.append(view.packed())
+            maps.append(depth.depth)
+    particles = [p for p in particles if len(p[0])]
+    if shadowed and particles:
+        points = np.concatenate([p[0] for p in particles])
+        center, radius = casters_sphere(points)
+        radius += max(float(p[1].max()) for p in particles)
+        positions = np.concatenate([p[0] for p in particles])
+        sizes = np.concatenate([p[1] for p in particles])
+        alphas = np.concatenate([p[2] for p in particles])
+        for k in shadowed:
+            view = light_camera(rows[k].direction, center, radius, GRID)
+            grid, z0, inv_dz = opacity_map(view, positions, sizes, alphas)
+            packed[k, LIGHT_OPACITY] = len(o_maps)
+            o_cams.append(view.packed())
+            o_maps.append(grid)
+            o_depth.append((z0, inv_dz))
+
+    def stack(items, shape, dtype=np.float64):
+        return np.stack(items).astype(dtype) if items else np.zeros(shape, dtype)
+
+    arrays = (
+        stack(cams, (0, PACKED_SIZE)),
+        stack(maps, (0, 1, 1), np.float32),
+        stack(o_cams, (0, PACKED_SIZE)),
+        stack(o_maps, (0, 1, 1, SLICES + 1), np.float32),
+        stack(o_depth, (0, 2)),
+    )
+    return Shadowing(packed, ambient, arrays)
 
 
 def casters_sphere(positions: np.ndarray) -> tuple[np.ndarray, float]:

@@ -139,6 +139,13 @@ class SpriteStyle:
         Values must be finite and >= 0. Replaces the falloff; sprites only, no streaks.
     intensity : float
         Factor on every particle's colour, >= 0.
+    lit : bool
+        Shade the particles by the lights: each colour times the ambient light plus every
+        light reaching the particle through shadows (smoke, dust, snow). False: the
+        colour is the light the particle gives (fire, sparks).
+    shadows : bool
+        The particles shadow opaque geometry and lit particles through an opacity shadow
+        map (their colour's alpha is their opacity; :mod:`motes.render.opacity`).
     """
 
     kind: SpriteKind | str = SpriteKind.SPRITE
@@ -148,6 +155,8 @@ class SpriteStyle:
     shutter: float = 0.0
     texture: np.ndarray | None = None
     intensity: float = 1.0
+    lit: bool = False
+    shadows: bool = False
 
     def __post_init__(self):
         def set_(name, value):
@@ -159,6 +168,9 @@ class SpriteStyle:
         set_("softness", check.non_negative("softness", self.softness))
         set_("shutter", check.non_negative("shutter", self.shutter))
         set_("intensity", check.non_negative("intensity", self.intensity))
+        for flag in ("lit", "shadows"):
+            if not isinstance(getattr(self, flag), bool):
+                raise TypeError(f"{flag} must be True or False, got {getattr(self, flag)!r}")
         if self.texture is not None:
             if self.kind is SpriteKind.POINT:
                 raise ValueError("texture needs kind='sprite' (points have no image)")

@@ -158,6 +158,8 @@ def _style(look: ParticleLook, path: str) -> SpriteStyle:
         shutter=look.shutter,
         intensity=look.intensity,
         texture=texture,
+        lit=look.lit,
+        shadows=look.shadows,
     )
 
 

@@ -42,6 +42,8 @@ class ParticleLook:
     intensity: float = 1.0
     texture: Path | None = None
     visible: bool = True
+    lit: bool = False  # shaded by the lights through shadows (smoke), not emissive
+    shadows: bool = False  # casts opacity shadows on geometry and lit particles
     surface: SurfaceLook | None = None  # kind "surface"
     spheres: SpheresLook | None = None  # kind "spheres"
 
