@@ -165,6 +165,21 @@ def test_usd_round_trip(tmp_path, frames, suffix):
     np.testing.assert_array_equal(fluid.GetPrimvar("phase").Get(1), phase)
 
 
+def test_usd_passes_usd_cores_validators(tmp_path, frames):
+    pytest.importorskip("pxr")
+    from pxr import Usd
+
+    try:
+        from pxr import UsdValidation
+    except ImportError:
+        pytest.skip("usd-core before UsdValidation (25.05)")
+    path = tmp_path / "run.usdc"
+    write(path, frames)
+    validators = UsdValidation.ValidationRegistry().GetOrLoadAllValidators()
+    errors = UsdValidation.ValidationContext(validators).Validate(Usd.Stage.Open(str(path)))
+    assert [e.GetMessage() for e in errors] == []
+
+
 def test_usd_of_a_count_that_changes_and_of_no_frame(tmp_path, frames):
     pytest.importorskip("pxr")
     from pxr import Usd, UsdGeom
@@ -530,3 +545,13 @@ def test_quaternions_of_rotations():
     extra_q = extra.as_quat() * np.where(extra.as_quat()[:, 3:] < 0, -1, 1)
     np.testing.assert_allclose(quaternions(rotations.as_matrix()), want, atol=1e-12)
     np.testing.assert_allclose(quaternions(extra.as_matrix()), extra_q, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["run.####.geo", "run.usda"])
+def test_names_that_would_share_a_file_or_prim_are_refused(tmp_path, frames, name):
+    if name.endswith(".usda"):
+        pytest.importorskip("pxr")
+    state = frames[0][2]["sys"]
+    writer = writer_for(tmp_path / name, fps=FPS)
+    with pytest.raises(ExportError, match="'a b' and 'a_b' would both be written as 'a_b'"):
+        writer.write_frame(1, 1 / FPS, {"a b": state, "a_b": state})

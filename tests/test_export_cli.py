@@ -210,3 +210,14 @@ def test_export_command_mistakes(tmp_path, capsys, monkeypatch):
     assert sorted(p.name for p in tmp_path.glob("out.*")) == ["out.0001.geo", "out.0002.geo"]
     assert run_cli("export", "bare.npz", "bare.npz") == 2
     assert "OUT is the cache itself" in one_error_line(capsys)
+
+
+def test_an_unwritable_export_folder_is_one_line_before_simulating(
+    no_simulation, monkeypatch, capsys
+):
+    # As root every folder is writable: stand in for a read-only one.
+    cli = sys.modules["motes.cli.main"]  # the module (motes.cli.main is the function)
+    monkeypatch.setattr(cli.os, "access", lambda path, mode: False)
+    assert run_cli("run", "fire", "--no-render", "--export", "run.####.geo") == 2
+    assert "cannot write to" in one_error_line(capsys)
+    assert list(no_simulation.iterdir()) == []

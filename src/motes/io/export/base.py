@@ -246,6 +246,24 @@ class ExportWriter(ABC):
         return f"{type(self).__name__}({str(self.path)!r}, frames_written={self.frames_written})"
 
 
+class PlainNames:
+    """The plain forms of piece names a writer has used, to refuse two pieces that only
+    differ in characters a file or prim name cannot hold (they would share a file)."""
+
+    def __init__(self, plain=safe_name):
+        self._plain = plain
+        self._seen: dict[str, str] = {}
+
+    def __call__(self, name: str) -> str:
+        plain = self._plain(name)
+        if self._seen.setdefault(plain, name) != name:
+            raise ExportError(
+                f"entries {self._seen[plain]!r} and {name!r} would both be written as "
+                f"{plain!r}; rename one"
+            )
+        return plain
+
+
 class PerPieceFiles(ExportWriter):
     """A writer of one file per frame and piece (PLY, ``.geo``), by the ``####`` rule.
 
@@ -258,7 +276,7 @@ class PerPieceFiles(ExportWriter):
     def __init__(self, path, **options):
         super().__init__(path, **options)
         self._several: bool | None = None
-        self._files: dict[str, str] = {}
+        self._plain = PlainNames()
 
     def file_for(self, frame: int, piece: str) -> Path:
         """The file that piece ``piece`` of frame ``frame`` goes to."""
@@ -268,15 +286,9 @@ class PerPieceFiles(ExportWriter):
         found = [p for name, entry in entries.items() for p in pieces(name, entry)]
         if self._several is None:
             self._several = len(found) > 1
+        for piece in found:  # every name checked before anything is written
+            self._plain(piece.name)
         for piece in found:
-            # Two names that differ only in characters a file name cannot hold would
-            # write to one file.
-            plain = safe_name(piece.name)
-            if self._files.setdefault(plain, piece.name) != piece.name:
-                raise ExportError(
-                    f"entries {self._files[plain]!r} and {piece.name!r} would share the "
-                    f"files {plain}.*; rename one"
-                )
             self._write_piece(self.file_for(frame, piece.name), piece, frame, time)
 
     @abstractmethod

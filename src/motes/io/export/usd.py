@@ -35,7 +35,7 @@ import numpy as np
 from .._atomic import discard, temporary_sibling
 from ..entry import Entry
 from .attributes import USD_OPACITY, usd_name
-from .base import ExportWriter, Piece, pieces
+from .base import ExportWriter, Piece, PlainNames, pieces
 
 _IDENTIFIER = re.compile(r"[^A-Za-z0-9_]")
 
@@ -61,7 +61,7 @@ class UsdWriter(ExportWriter):
         self._tmp: Path | None = None
         self._stage = None
         self._prims: dict[str, object] = {}
-        self._first: int | None = None
+        self._plain = PlainNames(prim_name)
 
     # -- the stage ------------------------------------------------------------------------
     def _open(self, frame: int) -> None:
@@ -82,14 +82,15 @@ class UsdWriter(ExportWriter):
         layer.customLayerData = {"motes": self.metadata()}
         layer.documentation = "particles written by motes"
         self._stage = stage
-        self._first = frame
 
     def _write(self, frame: int, time: float, entries: dict[str, Entry]) -> None:
+        found = [piece for name, entry in entries.items() for piece in pieces(name, entry)]
+        for piece in found:  # every name checked before anything is written
+            self._plain(piece.name)
         if self._stage is None:
             self._open(frame)
-        for name, entry in entries.items():
-            for piece in pieces(name, entry):
-                self._write_piece(piece, frame)
+        for piece in found:
+            self._write_piece(piece, frame)
         self._stage.SetEndTimeCode(frame)
         if not self._text:
             # Crate appends the new samples and drops them from memory.
@@ -114,7 +115,7 @@ class UsdWriter(ExportWriter):
         if prim is not None:
             return prim
         UsdGeom, Vt = self._UsdGeom, self._Vt
-        path = f"/motes/{prim_name(piece.name)}"
+        path = f"/motes/{self._plain(piece.name)}"
         if piece.kind == "points":
             prim = UsdGeom.Points.Define(self._stage, path)
             prim.SetWidthsInterpolation(UsdGeom.Tokens.vertex)

@@ -26,7 +26,7 @@ import numpy as np
 
 from .._atomic import replacing
 from ..entry import Entry
-from .base import ExportError, ExportWriter, Piece, ensure_folder, pieces, safe_name
+from .base import ExportError, ExportWriter, Piece, PlainNames, ensure_folder, pieces
 
 
 class VtkWriter(ExportWriter):
@@ -42,16 +42,17 @@ class VtkWriter(ExportWriter):
             raise ExportError(f"{self.folder} exists and is not a folder: the .vtp files go there")
         self._datasets: list[tuple[float, int, str, str]] = []  # time, part, name, file
         self._parts: dict[str, int] = {}
+        self._plain = PlainNames()
 
     def _write(self, frame: int, time: float, entries: dict[str, Entry]) -> None:
+        found = [piece for name, entry in entries.items() for piece in pieces(name, entry)]
+        plain = [self._plain(piece.name) for piece in found]  # all checked first
         ensure_folder(self.folder)
-        for name, entry in entries.items():
-            for piece in pieces(name, entry):
-                part = self._parts.setdefault(piece.name, len(self._parts))
-                file = self.folder / f"{safe_name(piece.name)}_{frame:06d}.vtp"
-                write_vtp(file, piece)
-                relative = f"{self.folder.name}/{file.name}"
-                self._datasets.append((time, part, piece.name, relative))
+        for piece, stem in zip(found, plain, strict=True):
+            part = self._parts.setdefault(piece.name, len(self._parts))
+            file = self.folder / f"{stem}_{frame:06d}.vtp"
+            write_vtp(file, piece)
+            self._datasets.append((time, part, piece.name, f"{self.folder.name}/{file.name}"))
 
     def _finish(self) -> None:
         if not self._datasets:
