@@ -5,7 +5,7 @@
 ===========================  ===========================================  =============
 output                       what is written                              needs
 ===========================  ===========================================  =============
-``run.npz``                  the particle cache (``docs/cache-format.md``)  nothing more
+``run.npz``                  the particle cache (docs/cache-format.md)    nothing more
 ``run.usd``, ``.usda``,      one time-sampled USD stage                   ``motes[usd]``
 ``.usdc``                    (:mod:`~motes.io.export.usd`)                (usd-core)
 ``run.pvd``                  a ParaView collection of per-frame ``.vtp``  ``motes[vtk]``
