@@ -9,6 +9,8 @@ skip cleanly when its package is not installed.
 from __future__ import annotations
 
 import math
+import os
+import signal
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -555,3 +557,29 @@ def test_names_that_would_share_a_file_or_prim_are_refused(tmp_path, frames, nam
     writer = writer_for(tmp_path / name, fps=FPS)
     with pytest.raises(ExportError, match="'a b' and 'a_b' would both be written as 'a_b'"):
         writer.write_frame(1, 1 / FPS, {"a b": state, "a_b": state})
+
+
+def test_ctrl_c_in_the_middle_of_a_frame_lands_after_the_frame(tmp_path, frames, monkeypatch):
+    from motes.io.export.geo import GeoWriter
+
+    written = []
+    write_piece = GeoWriter._write_piece
+
+    def interrupted(self, path, piece, frame, time):
+        if frame == 2 and not any(".0002." in name for name in written):
+            os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C before the frame's first file
+        write_piece(self, path, piece, frame, time)
+        written.append(path.name)
+
+    monkeypatch.setattr(GeoWriter, "_write_piece", interrupted)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        writer = writer_for(tmp_path / "a.####.geo", fps=FPS)
+        writer.write_frame(1, 1 / FPS, frames[0][2])
+        with pytest.raises(KeyboardInterrupt):
+            writer.write_frame(2, 2 / FPS, frames[1][2])
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    # The frame was finished, and counted, before the interruption was raised.
+    assert writer.frames_written == 2
+    assert sum(".0002." in name for name in written) == 7  # every piece of frame 2
