@@ -173,7 +173,7 @@ def test_births_dropped_at_capacity_are_reported(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--export", "cache.txt"], "--export must end in .npz"),
+        (["--export", "cache.txt"], "cannot export to cache.txt: the extension must be"),
         (["-o", "locked/out.mp4"], "cannot write to"),
     ],
 )

@@ -94,6 +94,7 @@ def test_file_layout_is_the_documented_one(tmp_path):
         assert str(data["motes_version"]) == mo.__version__
         assert str(data["scene"]) == "" and int(data["seed"]) == -1
         assert str(data["overrides"]) == "{}"
+        assert float(data["fps"]) == 0.0  # not given
         assert data["times"].dtype == np.float64 and data["times"].shape == (3,)
         assert list(data["names"]) == ["fountain", "puff"]
         puff = ("ids", "positions", "velocities", "radius", "age", "lifetime")
@@ -102,7 +103,8 @@ def test_file_layout_is_the_documented_one(tmp_path):
         assert len(data["puff/docs"]) == len(puff)
         meta = ("attributes", "units", "docs", "offsets")
         assert sorted(data.files) == sorted(
-            ["format", "version", "motes_version", "scene", "seed", "overrides", "times", "names"]
+            ["format", "version", "motes_version", "scene", "seed", "fps", "overrides"]
+            + ["times", "names"]
             + [f"puff/{k}" for k in meta + puff]
             + [f"fountain/{k}" for k in meta + tuple(data["fountain/attributes"])]
         )

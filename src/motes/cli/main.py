@@ -1,4 +1,4 @@
-"""``motes run``, ``motes scenes``, ``motes --version``.
+"""``motes run``, ``motes export``, ``motes scenes``, ``motes show``, ``motes --version``.
 
 User mistakes (a bad scene key, a missing file, a bad option, a size that would not fit
 in memory, a body that diverges while the scene runs) end with exit status 2 and one
@@ -27,7 +27,16 @@ examples:
   motes run smoke -o still.png            the last frame as a PNG
   motes run my_scene.toml -o frames/      a numbered PNG sequence in frames/
   motes run rain --resolution 640x360 --seed 3 --export rain.npz
+  motes run cloth_drop --no-render --export cloth.usdc    OpenUSD for Blender, Houdini
+  motes run fountain --no-render --export out/drops.####.ply  a PLY file per frame
   motes run fire --set system.flame.emitter.0.rate.rate=500 --set camera.fov=40
+"""
+
+EXPORT_EXAMPLES = """\
+examples:
+  motes export run.npz run.usdc              one time-sampled OpenUSD stage
+  motes export run.npz run.pvd               ParaView: run.pvd and run/*.vtp
+  motes export run.npz frames/run.####.geo   Houdini: a .geo file per frame
 """
 
 
@@ -43,6 +52,17 @@ def _resolution(text: str) -> tuple[int, int]:
     if not (1 <= width <= 16384 and 1 <= height <= 16384):
         raise argparse.ArgumentTypeError(f"width and height must be in [1, 16384], got {text}")
     return width, height
+
+
+def _positive(text: str) -> float:
+    """An argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
 
 
 def _integer_from(low: int):
@@ -108,8 +128,10 @@ def _parser() -> argparse.ArgumentParser:
     )
     run.add_argument(
         "--export",
-        metavar="CACHE.npz",
-        help="also write per-frame particle arrays (see docs/cache-format.md)",
+        metavar="PATH",
+        help="also write the particles for other tools, by extension: CACHE.npz "
+        "(docs/cache-format.md), .usd/.usda/.usdc (OpenUSD), .pvd (ParaView), or a file "
+        "per frame NAME.####.ply / NAME.####.geo (docs/exports.md)",
     )
     run.add_argument(
         "--no-render", action="store_true", help="simulate (and export) without rendering images"
@@ -126,6 +148,27 @@ def _parser() -> argparse.ArgumentParser:
         help="do not stop at the first particle whose state turns NaN or infinite",
     )
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
+    export = sub.add_parser(
+        "export",
+        help="convert a particle cache (.npz) to OpenUSD, VTK, PLY or Houdini .geo",
+        description="Write the frames of a cache that motes run --export CACHE.npz wrote "
+        "in another format, chosen by OUT's extension (see docs/exports.md).",
+        epilog=EXPORT_EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    export.add_argument("cache", metavar="CACHE", help="a .npz particle cache")
+    export.add_argument(
+        "output",
+        metavar="OUT",
+        help=".usd/.usda/.usdc, .pvd, NAME.####.ply or NAME.####.geo (#### is the frame)",
+    )
+    export.add_argument(
+        "--fps",
+        type=_positive,
+        metavar="F",
+        help="frames per second of the cache (default: the one it records)",
+    )
+    export.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
     sub.add_parser("scenes", help="list the built-in scenes")
     show = sub.add_parser(
         "show",
@@ -157,6 +200,8 @@ def main(argv: list[str] | None = None) -> int:
             return _list_scenes()
         if args.command == "show":
             return _show(args.scene)
+        if args.command == "export":
+            return _export(args)
         return _run(args)
     except (UserError, InsufficientMemoryError) as error:
         print(f"motes: error: {error}", file=sys.stderr)
@@ -232,6 +277,69 @@ def _check_writable(path: Path | None) -> None:
         raise UserError(f"cannot write to {folder}: permission denied")
 
 
+def _exporter(path: str, **options):
+    """The writer of ``--export PATH`` (or ``motes export``'s OUT), checked: its format,
+    its folder, that it can be written, and that its optional package is installed."""
+    from ..io.export import ExportError, writer_class, writer_for
+
+    try:
+        writer_class(path).check_package()
+        if not Path(path).resolve().parent.is_dir():
+            raise ExportError(f"export directory does not exist: {Path(path).parent}")
+        _check_writable(Path(path))
+        return writer_for(path, **options)
+    except ExportError as error:
+        raise UserError(str(error)) from None
+
+
+def _export(args) -> int:
+    """``motes export CACHE OUT``: replay a cache through the writer OUT's extension picks."""
+    from ..io.cache import load_cache
+    from ..io.export import ExportError, export_cache, writer_class
+    from .progress import Progress
+
+    try:
+        writer_class(args.output).check_package()
+    except ExportError as error:
+        raise UserError(str(error)) from None
+    source = Path(args.cache)
+    if source.resolve() == Path(args.output).resolve():
+        raise UserError(f"OUT is the cache itself: {args.output}")
+    try:
+        cache = load_cache(source)
+    except FileNotFoundError:
+        raise UserError(f"no such cache: {args.cache}") from None
+    except (ValueError, OSError) as error:
+        raise UserError(str(error)) from None
+    fps = args.fps or cache.fps
+    if fps is None:
+        raise UserError(
+            f"{args.cache} does not record its frame rate (written by an older motes): "
+            "give it with --fps"
+        )
+    writer = _exporter(
+        args.output, fps=fps, scene=cache.scene, seed=cache.seed, overrides=cache.overrides
+    )
+    progress = Progress(cache.frame_count, label=source.name, enabled=not args.quiet)
+    start = time.perf_counter()
+    try:
+        with writer:
+            export_cache(cache, writer, progress=progress.update)
+    except KeyboardInterrupt:
+        progress.close()
+        held = writer.frames_written
+        print(f"motes: interrupted; {args.output} holds {held} frames", file=sys.stderr)
+        return 130
+    except ExportError as error:
+        progress.close()
+        raise UserError(str(error)) from None
+    progress.close()
+    if not args.quiet:
+        elapsed = time.perf_counter() - start
+        print(f"{writer.frames_written} frames in {elapsed:.1f} s; wrote {args.output}")
+    return 0
+
+
 def _clear_frames(folder: Path, *, overwrite: bool) -> None:
     """A frame folder must hold only this run's frames: refuse one with files in it, or,
     with ``--overwrite``, remove an earlier run's frames (and nothing else)."""
@@ -291,7 +399,6 @@ def _warn_dropped(scene, warned: set) -> None:
 
 def _run(args) -> int:
     from ..finite import NonFiniteError
-    from ..io.cache import CacheWriter
     from ..io.frames import open_writer
     from ..scene import SceneError, load_scene
     from ..scene.overrides import parse_assignment
@@ -313,12 +420,20 @@ def _run(args) -> int:
         raise UserError(f"-o must end in .mp4, .gif or .png, or be a directory; got {output}")
     if output is not None and output.parent != Path() and not output.parent.is_dir():
         raise UserError(f"output directory does not exist: {output.parent}")
-    if args.export and not Path(args.export).resolve().parent.is_dir():
-        raise UserError(f"export directory does not exist: {Path(args.export).parent}")
-    if args.export and Path(args.export).suffix.lower() != ".npz":
-        raise UserError(f"--export must end in .npz, got {args.export}")
-    for path in (output, Path(args.export) if args.export else None):
-        _check_writable(path)
+    _check_writable(output)
+    # Every mistake in --export (its extension, ####, its folder, a missing package) is
+    # found here, before the first frame is simulated.
+    exporter = (
+        _exporter(
+            args.export,
+            fps=scene.fps,
+            scene=scene.name,
+            seed=scene.seed,
+            overrides=scene.overrides,
+        )
+        if args.export
+        else None
+    )
     if output is not None and output.suffix == "":
         _clear_frames(output, overwrite=args.overwrite)
     if output is not None:
@@ -340,15 +455,8 @@ def _run(args) -> int:
             if output
             else None
         )
-        cache = (
-            outputs.enter_context(
-                CacheWriter(
-                    args.export, scene=scene.name, seed=scene.seed, overrides=scene.overrides
-                )
-            )
-            if args.export
-            else None
-        )
+        if exporter is not None:
+            outputs.enter_context(exporter)
         outputs.callback(progress.close)
         try:
             # A .png keeps only the last frame: render just that one.
@@ -357,8 +465,9 @@ def _run(args) -> int:
                 scene.advance()
                 if writer is not None and (not still or index == frames - 1):
                     writer.write(scene.render(resolution))
-                if cache is not None:
-                    cache.add_frame(scene.time, scene.states())
+                if exporter is not None:
+                    entries = scene.entries(surfaces=exporter.surfaces)
+                    exporter.write_frame(scene.frame, scene.time, entries)
                 done += 1
                 progress.update(done)
                 _warn_dropped(scene, warned)

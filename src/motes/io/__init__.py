@@ -1,10 +1,12 @@
 """Reading and writing: images, videos and particle caches.
 
 Pillow and ffmpeg (``imageio-ffmpeg``) are imported only when an image or video is
-actually written or read.
+actually written or read. Exports for other tools (OpenUSD, VTK, PLY, Houdini ``.geo``)
+are in :mod:`motes.io.export`, each importing its package only when used.
 """
 
 from .cache import Cache, CacheWriter, load_cache
+from .entry import Entry
 from .frames import (
     FrameWriter,
     GifWriter,
@@ -21,6 +23,7 @@ from .frames import (
 __all__ = [
     "Cache",
     "CacheWriter",
+    "Entry",
     "FrameWriter",
     "GifWriter",
     "Mp4Writer",

@@ -11,38 +11,53 @@ A ZIP archive of ``.npy`` arrays, readable with ``numpy.load(path)`` (no pickles
 ``allow_pickle=False`` works). ``F`` is the number of frames; for each entry ``S`` (a
 system or a body), ``N_S`` is its total number of particle records over all frames.
 
-=================  ============  ==========  ============================================
-key                shape         dtype       meaning
-=================  ============  ==========  ============================================
-``format``         ()            str         always ``"motes-cache"``
-``version``        ()            int64       format version, ``2``
-``motes_version``  ()            str         version of motes that wrote the file
-``scene``          ()            str         scene name; ``""`` when not from a scene
-``seed``           ()            int64       the scene's seed; ``-1`` when not given
-``overrides``      ()            str         the values set over the scene file's
-                                             (``motes run --set``), as a JSON object
-                                             of key path to value; ``"{}"`` for none
-                                             (absent in older files)
-``times``          (F,)          float64     simulation time of each frame [s]
-``names``          (S,)          str         entry names, in the order first given
-``S/attributes``   (A,)          str         attributes recorded for ``S``: ``ids``,
-                                             ``positions``, ``velocities``, ``radius``,
-                                             then the state's fields
-``S/units``        (A,)          str         SI unit of each (``"1"``: dimensionless,
-                                             ``""``: not a quantity)
-``S/docs``         (A,)          str         meaning of each
-``S/offsets``      (F+1,)        int64       frame ``f``'s particles of ``S`` are rows
-                                             ``offsets[f]:offsets[f+1]`` of every
-                                             attribute array; ``offsets[0] = 0``,
-                                             ``offsets[F] = N_S``
-``S/ids``          (N_S,)        int64       stable particle identity: follows a
-                                             particle across frames
-``S/positions``    (N_S, 3)      float       position [m]
-``S/velocities``   (N_S, 3)      float       velocity [m/s]
-``S/radius``       (N_S,)        float       particle radius [m]
-``S/NAME``         (N_S[, c])    any         every other attribute of the state (a
-                                             vector one with ``c`` components)
-=================  ============  ==========  ============================================
+=====================  ============  ==========  ============================================
+key                    shape         dtype       meaning
+=====================  ============  ==========  ============================================
+``format``             ()            str         always ``"motes-cache"``
+``version``            ()            int64       format version, ``2``
+``motes_version``      ()            str         version of motes that wrote the file
+``scene``              ()            str         scene name; ``""`` when not from a scene
+``seed``               ()            int64       the scene's seed; ``-1`` when not given
+``fps``                ()            float64     the scene's frame rate [1/s]; ``0`` when
+                                                 not given (absent in older files)
+``overrides``          ()            str         the values set over the scene file's
+                                                 (``motes run --set``), as a JSON object
+                                                 of key path to value; ``"{}"`` for none
+                                                 (absent in older files)
+``times``              (F,)          float64     simulation time of each frame [s]
+``names``              (S,)          str         entry names, in the order first given
+``S/attributes``       (A,)          str         attributes recorded for ``S``: ``ids``,
+                                                 ``positions``, ``velocities``, ``radius``,
+                                                 then the state's fields
+``S/units``            (A,)          str         SI unit of each (``"1"``: dimensionless,
+                                                 ``""``: not a quantity)
+``S/docs``             (A,)          str         meaning of each
+``S/offsets``          (F+1,)        int64       frame ``f``'s particles of ``S`` are rows
+                                                 ``offsets[f]:offsets[f+1]`` of every
+                                                 attribute array; ``offsets[0] = 0``,
+                                                 ``offsets[F] = N_S``
+``S/ids``              (N_S,)        int64       stable particle identity: follows a
+                                                 particle across frames
+``S/positions``        (N_S, 3)      float       position [m]
+``S/velocities``       (N_S, 3)      float       velocity [m/s]
+``S/radius``           (N_S,)        float       particle radius [m]
+``S/NAME``             (N_S[, c])    any         every other attribute of the state (a
+                                                 vector one with ``c`` components)
+``S/faces``            (m, 3)        int64       only for an entry with a mesh (a cloth):
+                                                 triangles over its particles
+``S/curves``           (s,)          int64       only for an entry with curves (hair):
+                                                 particles per strand, root first
+``S/body_centers``     (F, b, 3)     float64     only for a rigid world with bodies: each
+                                                 body's centre of mass per frame [m]
+``S/body_rotations``   (F, b, 3, 3)  float64     with the centres: each body's rotation
+                                                 per frame (its axes as columns)
+=====================  ============  ==========  ============================================
+
+The last four keys come from :class:`~motes.io.entry.Entry` items (a scene's bodies give
+them); faces and curves are the first frame's (the topology does not change). They and
+``fps`` are absent in files written before them: readers that do not know them ignore
+them, so the format version stays 2.
 
 Values keep the kind's own dtype (float32 for systems and liquids, float64 for cloth,
 hair and rigid worlds), so a frame read back equals the live state. Arrays are record
@@ -89,8 +104,9 @@ import numpy as np
 
 from .. import _validate as check
 from ..particles import BUILTIN
-from ..state import CORE, Field, ParticleState, as_state
+from ..state import CORE, Field, ParticleState
 from ._atomic import replacing
+from .entry import Entry, as_entry
 
 #: Value of the ``format`` entry.
 FORMAT = "motes-cache"
@@ -114,17 +130,22 @@ def _check_name(name) -> str:
     return name
 
 
-def _state_of(name: str, item) -> ParticleState:
+def _entry_of(name: str, item) -> Entry:
     try:
-        return as_state(item)
+        return as_entry(item)
     except TypeError as error:
         raise TypeError(f"items[{name!r}]: {error}") from None
 
 
 class _Layout:
-    """What the first frame fixed for one entry: attributes, units, docs, dtypes."""
+    """What the first frame fixed for one entry: attributes, units, docs, dtypes, and
+    its shapes (faces and curves as given then; whether it has body transforms)."""
 
-    def __init__(self, state: ParticleState):
+    def __init__(self, entry: Entry):
+        state = entry.state
+        self.faces = entry.faces
+        self.curves = entry.curves
+        self.bodies = None if entry.transforms is None else len(entry.transforms[0])
         self.attributes = state.names()
         fields = [state.field(a) for a in self.attributes]
         self.units = tuple(f.unit for f in fields)
@@ -133,9 +154,20 @@ class _Layout:
         # components: () for a scalar attribute, (c,) for a vector one
         self.components = tuple(np.shape(f.data)[:-1] for f in fields)
 
-    def record(self, name: str, frame: int, state: ParticleState) -> dict[str, np.ndarray]:
-        """Record-major copies of the state's attributes, in the fixed dtypes."""
+    def record(self, name: str, frame: int, entry: Entry) -> dict[str, np.ndarray]:
+        """Record-major copies of the state's attributes, in the fixed dtypes, and of the
+        body transforms (``body_centers``, ``body_rotations``) if the first frame had them."""
+        state = entry.state
         out = {}
+        if self.bodies is not None:
+            given = None if entry.transforms is None else len(entry.transforms[0])
+            if given != self.bodies:
+                raise ValueError(
+                    f"frame {frame}: {name!r} gives transforms of {given} bodies, but "
+                    f"{self.bodies} at the first frame"
+                )
+            out["body_centers"] = np.array(entry.transforms[0], dtype=np.float64)
+            out["body_rotations"] = np.array(entry.transforms[1], dtype=np.float64)
         for attribute, dtype, components in zip(
             self.attributes, self.dtypes, self.components, strict=True
         ):
@@ -168,6 +200,9 @@ class CacheWriter:
         Name of the scene the frames come from, recorded in the file.
     seed : int, optional
         The scene's seed (>= 0), recorded in the file.
+    fps : float, optional
+        The scene's frame rate [1/s], recorded in the file (exporters time their frames
+        by it: :mod:`motes.io.export`).
     overrides : Mapping[str, object], optional
         Values set over the scene file's (key path -> value, as ``motes run --set``
         gives them), recorded as JSON; values JSON cannot hold are recorded as text.
@@ -187,6 +222,7 @@ class CacheWriter:
         compress: bool = False,
         scene: str | None = None,
         seed: int | None = None,
+        fps: float | None = None,
         overrides: Mapping[str, object] | None = None,
     ):
         path = Path(path)
@@ -200,6 +236,7 @@ class CacheWriter:
         self.compress = bool(compress)
         self.scene = scene
         self.seed = None if seed is None else check.integer("seed", seed, low=0)
+        self.fps = None if fps is None else check.positive("fps", fps)
         if overrides is not None and not isinstance(overrides, Mapping):
             raise TypeError(f"overrides must be a mapping, got {type(overrides).__name__}")
         self.overrides = json.dumps(dict(overrides or {}), default=str, sort_keys=True)
@@ -226,27 +263,29 @@ class CacheWriter:
         ----------
         time : float
             Simulation time of the frame [s].
-        items : Mapping[str, HasParticles or ParticleState]
+        items : Mapping[str, HasParticles or ParticleState or Entry]
             Systems, stores, liquids, cloth, hair, rigid worlds, scene bodies (anything
-            with ``particle_state()``) or states, by name. The first frame fixes the
-            names and each one's attributes; every later frame must give the same names.
+            with ``particle_state()``), states or :class:`~motes.io.entry.Entry` items
+            (a state with faces, curves or body transforms), by name. The first frame
+            fixes the names and each one's attributes; every later frame must give the
+            same names.
         """
         if self._closed:
             raise ValueError(f"add_frame on a closed cache writer ({self.path})")
         time = check.real("time", time)
         if not isinstance(items, Mapping) or not items:
             raise TypeError("items must be a non-empty mapping of name -> particles")
-        states = {_check_name(name): _state_of(name, item) for name, item in items.items()}
+        entries = {_check_name(name): _entry_of(name, item) for name, item in items.items()}
         layouts = self._layouts
         if layouts is None:
-            layouts = {name: _Layout(state) for name, state in states.items()}
-        elif set(states) != set(layouts):
+            layouts = {name: _Layout(entry) for name, entry in entries.items()}
+        elif set(entries) != set(layouts):
             raise ValueError(
-                f"frame {len(self._frames)} gives {sorted(states)}, but the first frame "
+                f"frame {len(self._frames)} gives {sorted(entries)}, but the first frame "
                 f"gave {sorted(layouts)}; every frame must give the same names"
             )
         frame = len(self._frames)
-        record = {name: layouts[name].record(name, frame, states[name]) for name in layouts}
+        record = {name: layouts[name].record(name, frame, entries[name]) for name in layouts}
         self._layouts = layouts
         self._frames.append((time, record))
 
@@ -270,6 +309,7 @@ class CacheWriter:
             _put(archive, "motes_version", np.array(__version__))
             _put(archive, "scene", np.array(self.scene or ""))
             _put(archive, "seed", np.array(-1 if self.seed is None else self.seed, np.int64))
+            _put(archive, "fps", np.array(self.fps or 0.0, dtype=np.float64))
             _put(archive, "overrides", np.array(self.overrides))
             _put(archive, "times", np.array([t for t, _ in frames], dtype=np.float64))
             _put(archive, "names", np.array(list(self._layouts), dtype=str))
@@ -289,6 +329,17 @@ class CacheWriter:
                     _put_chunks(
                         archive, f"{name}/{attribute}", dtype, shape, (c[attribute] for c in chunks)
                     )
+                if layout.faces is not None:
+                    _put(archive, f"{name}/faces", layout.faces)
+                if layout.curves is not None:
+                    _put(archive, f"{name}/curves", layout.curves)
+                if layout.bodies is not None:
+                    for key, tail in (("body_centers", (3,)), ("body_rotations", (3, 3))):
+                        shape = (len(frames), layout.bodies, *tail)
+                        _put_chunks(
+                            archive, f"{name}/{key}", np.dtype(np.float64), shape,
+                            (c[key] for c in chunks),
+                        )  # fmt: skip
 
     def __enter__(self) -> CacheWriter:
         return self
@@ -331,6 +382,8 @@ class Cache:
         Name of the scene the frames come from (None when not recorded).
     seed : int or None
         The scene's seed (None when not recorded).
+    fps : float or None
+        The scene's frame rate [1/s] (None when not recorded).
     overrides : dict
         Values set over the scene file's (key path -> value; empty when none or not
         recorded).
@@ -348,10 +401,13 @@ class Cache:
         version: int = VERSION,
         scene: str | None = None,
         seed: int | None = None,
+        fps: float | None = None,
         overrides: dict | None = None,
         motes_version: str | None = None,
+        shapes: dict[str, dict[str, np.ndarray]] | None = None,
     ):
         self.times = times
+        self.fps = fps
         self.overrides = dict(overrides or {})
         self.names = tuple(offsets)
         self.version = version
@@ -361,6 +417,8 @@ class Cache:
         self._offsets = offsets
         self._arrays = arrays
         self._fields = fields
+        # per entry: faces, curves, body_centers (F, b, 3), body_rotations (F, b, 3, 3)
+        self._shapes = shapes or {}
 
     @property
     def systems(self) -> tuple[str, ...]:
@@ -455,6 +513,22 @@ class Cache:
         fields = {a: Field(values.T, *meaning[a]) for a, values in rows.items() if a not in CORE}
         return ParticleState(rows["ids"], rows["positions"].T, rows["velocities"].T, radius, fields)
 
+    def entry(self, index: int, name: str | None = None) -> Entry:
+        """One frame of entry ``name`` as an :class:`~motes.io.entry.Entry`: its
+        :meth:`state` with the faces, curves and body transforms recorded for it."""
+        name = self._name(name)
+        shapes = self._shapes.get(name, {})
+        transforms = None
+        if "body_centers" in shapes:
+            f = self._index(index)
+            transforms = (shapes["body_centers"][f], shapes["body_rotations"][f])
+        return Entry(
+            self.state(index, name),
+            faces=shapes.get("faces"),
+            curves=shapes.get("curves"),
+            transforms=transforms,
+        )
+
     def __repr__(self) -> str:
         return f"Cache(frame_count={self.frame_count}, names={list(self.names)})"
 
@@ -520,6 +594,7 @@ def load_cache(path) -> Cache:
         offsets: dict[str, np.ndarray] = {}
         arrays: dict[str, dict[str, np.ndarray]] = {}
         fields: dict[str, dict[str, tuple[str, str]]] = {}
+        shapes: dict[str, dict[str, np.ndarray]] = {}
         for name in map(str, names):
             offs = get(f"{name}/offsets")
             if offs.shape != (len(times) + 1,) or offs[0] != 0 or np.any(np.diff(offs) < 0):
@@ -555,6 +630,9 @@ def load_cache(path) -> Cache:
                     )
                 arrays[name][attribute] = values
                 fields[name][attribute] = (unit, doc)
+            shapes[name] = _shapes(
+                name, get, keys, len(times), int(offs[min(1, len(times))]), shown
+            )
         meta = {}
         if version >= 2:
             seed = int(get("seed"))
@@ -565,7 +643,39 @@ def load_cache(path) -> Cache:
             }
             if "overrides" in keys:
                 meta["overrides"] = _overrides(get("overrides"), shown)
-    return Cache(times, offsets, arrays, fields, version=version, **meta)
+            if "fps" in keys:
+                fps = float(get("fps"))
+                meta["fps"] = fps if fps > 0 else None
+    return Cache(times, offsets, arrays, fields, version=version, shapes=shapes, **meta)
+
+
+def _shapes(name: str, get, keys: set, frames: int, first: int, shown: str) -> dict:
+    """The optional ``S/faces``, ``S/curves``, ``S/body_centers`` and ``S/body_rotations``
+    of entry ``name``, checked against the frame count and the first frame's particles."""
+    out = {}
+    for key in ("faces", "curves", "body_centers", "body_rotations"):
+        if f"{name}/{key}" in keys:
+            out[key] = get(f"{name}/{key}")
+    faces, curves = out.get("faces"), out.get("curves")
+    bad = []
+    if faces is not None and (
+        faces.ndim != 2
+        or faces.shape[1] != 3
+        or (faces.size and not 0 <= faces.min() <= faces.max() < first)
+    ):
+        bad.append("faces")
+    if curves is not None and (curves.ndim != 1 or int(curves.sum()) != first):
+        bad.append("curves")
+    if ("body_centers" in out) != ("body_rotations" in out):
+        bad.append("body_centers or body_rotations (one without the other)")
+    elif "body_centers" in out:
+        centers, rotations = out["body_centers"], out["body_rotations"]
+        b = centers.shape[1] if centers.ndim == 3 else -1
+        if centers.shape != (frames, b, 3) or rotations.shape != (frames, b, 3, 3):
+            bad.append("body_centers or body_rotations")
+    if bad:
+        raise ValueError(f"{shown} is a damaged motes cache: bad {name}/{bad[0]}")
+    return out
 
 
 def _overrides(entry: np.ndarray, shown: str) -> dict:

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.entry import Entry
 from ..state import ParticleState
 from .schema import SceneError, Table, one_of, shown
 
@@ -44,6 +45,13 @@ class Body(ABC):
     def particle_state(self) -> ParticleState:
         """The particles of the body's simulation now; empty for a body without any."""
         return ParticleState(np.zeros(0, np.int64), np.zeros((3, 0)), np.zeros((3, 0)), np.zeros(0))
+
+    def entry(self, *, surface: bool = False) -> Entry:
+        """What the cache and the exporters record of the body now: its
+        :meth:`particle_state` and the shapes on it (a cloth's faces, hair's strands, a
+        rigid world's body transforms; with ``surface``, a liquid's surface mesh, which
+        costs a meshing). Bodies that are only particles need not override it."""
+        return Entry(self.particle_state())
 
     def count(self) -> int:
         """Particles in the body (for progress lines and ``Scene.counts``)."""

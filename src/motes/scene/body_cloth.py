@@ -17,6 +17,7 @@ from ..cloth import Airflow, Cloth, Keyframes, SpringFamily
 from ..collide import TriangleMeshCollider
 from ..hair import Hair, Head
 from ..integrate.implicit import ImplicitEuler, SolverError
+from ..io.entry import Entry
 from ..render import geometry
 from ..render.shading import Material
 from .bodies import Body, BuildContext, register
@@ -140,6 +141,9 @@ class ClothBody(Body):
 
     def particle_state(self):
         return self.cloth.particle_state()
+
+    def entry(self, *, surface: bool = False) -> Entry:
+        return Entry(self.cloth.particle_state(), faces=self.cloth.faces)
 
 
 def _pins(table: Table, cloth: Cloth, grid: bool) -> None:
@@ -330,6 +334,10 @@ class HairBody(Body):
 
     def particle_state(self):
         return self.hair.particle_state()
+
+    def entry(self, *, surface: bool = False) -> Entry:
+        curves = np.full(self.hair.strand_count, self.hair.per_strand, dtype=np.int64)
+        return Entry(self.hair.particle_state(), curves=curves)
 
 
 def _hair_colliders(table: Table, context: BuildContext) -> list:

@@ -15,6 +15,7 @@ import numpy as np
 
 from .. import fluids
 from ..fluids.fluid import check_memory
+from ..io.entry import Entry
 from ..render import geometry
 from ..render.metaballs import Metaballs
 from ..render.shading import Material
@@ -162,23 +163,43 @@ class FluidBody(Body):
         )
         return [(drawn, self.sprite_style)]
 
-    def drawables(self) -> list:
-        items = list(self.walls)
-        if self.floating is not None:
-            items.extend(self.floating.boxes())
+    def _surfaces(self) -> list:
+        """``(phase, mesh)`` of each phase's metaball surface (spray left out)."""
         if self.metaballs is None or len(self.fluid) == 0:
-            return items
+            return []
         s = self.fluid.state
         body = ~self._spray()
-        material = Material(specular=self.look["specular"], shininess=48.0)
-        for phase, rgb in enumerate(self.colors):
+        out = []
+        for phase in range(len(self.colors)):
             chosen = body & (s.phase == phase)
             if chosen.sum() < 2:
                 continue
             mesh = self.metaballs.mesh(s.positions[:, chosen].T)
             if len(mesh.faces):
-                items.append(geometry.Mesh(mesh, color=tuple(rgb), material=material))
+                out.append((phase, mesh))
+        return out
+
+    def drawables(self) -> list:
+        items = list(self.walls)
+        if self.floating is not None:
+            items.extend(self.floating.boxes())
+        material = Material(specular=self.look["specular"], shininess=48.0)
+        for phase, mesh in self._surfaces():
+            items.append(geometry.Mesh(mesh, color=tuple(self.colors[phase]), material=material))
         return items
+
+    def entry(self, *, surface: bool = False) -> Entry:
+        """The particles and, with ``surface`` and a ``"surface"`` look, the surface the
+        scene draws: every phase's mesh in one (the spray left out)."""
+        state = self.fluid.particle_state()
+        if not surface or self.metaballs is None:
+            return Entry(state)
+        vertices, faces, count = [np.zeros((0, 3), np.float32)], [np.zeros((0, 3), np.int64)], 0
+        for _, mesh in self._surfaces():
+            vertices.append(mesh.vertices)
+            faces.append(mesh.faces.astype(np.int64) + count)
+            count += len(mesh.vertices)
+        return Entry(state, surface=(np.concatenate(vertices), np.concatenate(faces)))
 
 
 # --- reading the table -------------------------------------------------------------------

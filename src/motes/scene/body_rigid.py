@@ -22,6 +22,7 @@ import numpy as np
 
 from .. import rigid
 from ..collide import Box as BoxCollider
+from ..io.entry import Entry
 from ..render import geometry
 from .bodies import Body, BuildContext, register
 from .parts import body_forces
@@ -92,6 +93,13 @@ class RigidScene(Body):
 
     def particle_state(self):
         return self.world.particle_state()
+
+    def entry(self, *, surface: bool = False) -> Entry:
+        transforms = self.world.transforms()
+        # A world of particles, sticks and ropes only has no body to place.
+        return Entry(
+            self.world.particle_state(), transforms=transforms if len(transforms[0]) else None
+        )
 
     def contact(self, path: str, name: str, options: dict):
         from ..couple import RigidContact

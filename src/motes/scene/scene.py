@@ -18,6 +18,7 @@ from .. import hierarchy
 from ..collide.colliders import Collider
 from ..finite import check_finite
 from ..integrate.implicit import SolverError
+from ..io.entry import Entry
 from ..render.camera import Camera, Projection
 from ..render.shading import DirectionalLight, PointLight
 from ..state import ParticleState
@@ -177,6 +178,15 @@ class Scene:
         states = {name: s.particle_state() for name, s in self.systems.items()}
         states.update((name, body.particle_state()) for name, body in self.bodies.items())
         return states
+
+    def entries(self, *, surfaces: bool = False) -> dict[str, Entry]:
+        """What the cache and the exporters record now, by name (systems first): each
+        system's state, each body's :meth:`~motes.scene.bodies.Body.entry` (a cloth's
+        faces, hair's strands, a rigid world's transforms; liquid surfaces with
+        ``surfaces``)."""
+        entries = {name: Entry(s.particle_state()) for name, s in self.systems.items()}
+        entries.update((name, body.entry(surface=surfaces)) for name, body in self.bodies.items())
+        return entries
 
     def camera_at(self, time: float | None = None, resolution=None) -> Camera:
         """The camera that draws the scene at ``time`` [s] (default: now): ``camera``

@@ -1,0 +1,125 @@
+"""Export throughput: a million-particle fire written frame by frame to each format.
+
+Run from the repository root::
+
+    PYTHONPATH=src python -m benchmarks.pipeline           # 1,000,000 points x 10 frames
+    PYTHONPATH=src python -m benchmarks.pipeline --quick   # 20,000 points x 3 frames
+
+The demo fire held at a steady live count (:func:`benchmarks.emitter.fire_system`, the
+emitter benchmark's), stepped between frames so every frame holds new values (USD's
+crate files share identical arrays: unchanged frames would measure nothing), is written
+through the exporters ``motes run --export`` uses (:func:`motes.io.export.writer_for`):
+ids, positions, velocities, radius, age, lifetime, colour and birth size, 68 bytes a
+point. Only ``write_frame`` and the final ``close`` are timed, not the steps. Figures, in
+millions of points written per second (points of all frames over the writer's time):
+
+- ``usd_export_mpoints_per_s``: a time-sampled ``.usdc`` (the headline; target >= 20);
+- ``usd_core_export_mpoints_per_s``: the same with the core attributes only (ids,
+  positions, velocities, widths: 36 bytes a point), where USD's own time goes;
+- ``vtp_export_mpoints_per_s``: ``.pvd`` with a ``.vtp`` per frame (LZ4-compressed);
+- ``ply_export_mpoints_per_s``: a binary ``.ply`` per frame;
+- ``npz_cache_mpoints_per_s``: the baseline, the ``.npz`` particle cache of the same
+  frames (a copy per frame, one uncompressed write at the end), with each format's ratio
+  to it (``*_vs_npz``).
+
+Files go to a temporary folder (the page cache, on a machine with memory to spare: the
+figures are the writers', not the disk's). Formats whose package is not installed are
+skipped and named.
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from motes.io.entry import Entry
+from motes.io.export import ExportError, writer_for
+from motes.state import ParticleState
+
+from ._common import benchmark_main, machine, table
+from .emitter import DT, FPS, fire_system
+
+#: Figure -> (output name, whether only the core attributes are written). The first is
+#: the baseline.
+FORMATS = {
+    "npz_cache_mpoints_per_s": ("run.npz", False),
+    "usd_export_mpoints_per_s": ("run.usdc", False),
+    "usd_core_export_mpoints_per_s": ("core.usdc", True),
+    "vtp_export_mpoints_per_s": ("run.pvd", False),
+    "ply_export_mpoints_per_s": ("run.####.ply", False),
+}
+
+
+def core(state: ParticleState) -> ParticleState:
+    """``state`` with its ids, positions, velocities and radius only."""
+    return ParticleState(state.ids, state.positions, state.velocities, state.radius)
+
+
+def time_export(path: Path, system, frames: int, *, only_core: bool) -> tuple[float, int]:
+    """Seconds spent writing ``frames`` frames of ``system`` to ``path``, and the points
+    written. The system is stepped (untimed) before each frame."""
+    writer = writer_for(path, fps=FPS, scene="fire")
+    spent, points = 0.0, 0
+    for frame in range(1, frames + 1):
+        system.step(DT)
+        state = system.particle_state()
+        entry = Entry(core(state) if only_core else state)
+        start = time.perf_counter()
+        writer.write_frame(frame, frame * DT, {"fire": entry})
+        spent += time.perf_counter() - start
+        points += state.count
+    start = time.perf_counter()
+    writer.close()
+    return spent + time.perf_counter() - start, points
+
+
+def run(quick: bool) -> dict:
+    points, frames = (20_000, 3) if quick else (1_000_000, 10)
+    figures: dict = {"quick": quick, "points": points, "frames": frames, **machine()}
+    print(f"building a fire of {points:,} particles ...", file=sys.stderr, flush=True)
+    system = fire_system(points)
+    for _ in range(3):  # the kernels' first calls (compilation or cache loading)
+        system.step(DT)
+    rows = []
+    skipped = []
+    with tempfile.TemporaryDirectory(prefix="motes-pipeline-") as folder:
+        for figure, (output, only_core) in FORMATS.items():
+            name = figure.removesuffix("_mpoints_per_s").removesuffix("_export")
+            print(f"{name} ...", file=sys.stderr, flush=True)
+            try:
+                seconds, written = time_export(
+                    Path(folder) / output, system, frames, only_core=only_core
+                )
+            except ExportError as error:  # its package is not installed
+                skipped.append(name)
+                rows.append((name, f"skipped: {error}"))
+                continue
+            rate = written / seconds / 1e6
+            figures[figure] = rate
+            figures[f"{name}_seconds"] = seconds
+            shown = f"{rate:7.2f} M points/s  ({written:,} points in {seconds:.2f} s)"
+            rows.append((f"{output:<13} {name}", shown))
+    base = figures["npz_cache_mpoints_per_s"]
+    for figure in list(FORMATS)[1:]:
+        if figure in figures:
+            name = figure.removesuffix("_mpoints_per_s").removesuffix("_export")
+            figures[f"{name}_vs_npz"] = figures[figure] / base
+    figures["skipped"] = skipped
+    print(table(rows, title=f"Export of {points:,} points x {frames} frames (write + close)"))
+    return figures
+
+
+def main(argv: list[str] | None = None) -> dict:
+    return benchmark_main(
+        argv,
+        prog="python -m benchmarks.pipeline",
+        doc=__doc__,
+        quick_help="20,000 points x 3 frames",
+        run=run,
+    )
+
+
+if __name__ == "__main__":
+    main()

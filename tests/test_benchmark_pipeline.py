@@ -1,0 +1,16 @@
+"""The export benchmark's JSON contract (no timing asserts)."""
+
+import pytest
+from benchmarks import pipeline
+
+from benchmark_contract import quick_figures
+
+
+def test_quick_run_ends_with_one_json_line_of_positive_finite_figures(capsys):
+    for module in ("pxr", "vtkmodules", "plyfile"):
+        pytest.importorskip(module)
+    required = ["npz_cache_mpoints_per_s", *(f for f in pipeline.FORMATS if "export" in f)]
+    figures = quick_figures(pipeline, capsys, required)
+    assert figures["quick"] is True and figures["skipped"] == []
+    assert figures["points"] == 20_000 and figures["frames"] == 3
+    assert figures["usd_vs_npz"] > 0
