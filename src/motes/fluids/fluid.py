@@ -20,7 +20,8 @@ from ..collide.contact import pack as pack_colliders
 from ..collide.swept import sweep_contacts
 from ..forces.apply import add_forces, check_force
 from ..forces.base import Force
-from ..spatial import UniformGrid
+from ..spatial import UniformGrid, spatial_index
+from ..spatial.neighbors import sorted_neighbors
 from ..state import Field, ParticleState
 from . import kernels
 from .boundaries import MeshWall, pack
@@ -172,7 +173,11 @@ class Fluid:
             np.zeros(n, np.float32),
         )
         d = model.derived
-        self._grid = UniformGrid(d["h"], capacity=96)
+        self._index = (
+            UniformGrid(d["h"], capacity=96)
+            if model.structure == "grid"
+            else spatial_index(model.structure)
+        )
         self.time = 0.0
         #: Forces besides gravity (:meth:`add_force`).
         self.forces = []
@@ -324,14 +329,11 @@ class Fluid:
             reaction.pushed(predicted, radius, d["mass"][s.phase])
         kernels.project(*predicted, rows, radius, depth)
 
-        # Sort into the grid's order: neighbours then sit in nearby memory.
-        grid = self._grid.build(predicted)
-        order = grid.order
+        # Sort into the structure's order: neighbours then sit in nearby memory.
+        offsets, nbr, order = sorted_neighbors(self._index, predicted, h)
         s.permute(order)
-        predicted = grid.sorted_positions.copy()  # the grid reuses its buffer
+        predicted = np.ascontiguousarray(predicted[:, order])
         depth = depth[order]
-        lists = grid.neighbors(h, slots=True)
-        offsets, nbr = lists.offsets, lists.indices
 
         weight = d["weight"][s.phase].astype(np.float32)
         delta = np.empty(n, np.float32)

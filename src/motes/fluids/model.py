@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import _validate
+from ..spatial.index import STRUCTURES
 from . import boundaries as _boundaries
 from .sph import SPIKY_GRAD, lattice_number_density, wall_scale
 
@@ -78,6 +79,11 @@ class FluidModel:
         Longest internal step [s]; ``Fluid.step(dt)`` splits longer steps.
     boundaries : tuple
         ``Plane``, ``Tank``, ``Box``, ``Sphere`` objects.
+    structure : {"grid", "octree", "kdtree"}
+        Where neighbours are found each step (:func:`motes.spatial.spatial_index`); the
+        particles are kept in its order. The grid (default) is the fastest for a liquid's
+        evenly spread particles (``docs/spatial.md``); a tree suits a spray that flies
+        far from its pool (the grid's cells grow with the spread).
     """
 
     spacing: float
@@ -94,6 +100,7 @@ class FluidModel:
     relaxation: float = 0.01
     max_dt: float = 1.0 / 240.0
     boundaries: tuple = ()
+    structure: str = "grid"
     derived: dict = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -113,6 +120,7 @@ class FluidModel:
         _validate.non_negative("vorticity", self.vorticity)
         _validate.positive("relaxation", self.relaxation)
         _validate.positive("max_dt", self.max_dt)
+        _validate.choice("structure", self.structure, STRUCTURES)
         walls = tuple(self.boundaries)
         for wall in walls:
             if not isinstance(wall, _boundaries.Boundary):

@@ -20,6 +20,7 @@ from ..render import geometry
 from ..render.metaballs import Metaballs
 from ..render.shading import Material
 from ..render.sprites import SpriteStyle
+from ..spatial.index import STRUCTURES
 from ..state import Field
 from .bodies import Body, BuildContext, register
 from .parts import body_forces, placed_mesh
@@ -325,6 +326,7 @@ def build_fluid(table: Table, context: BuildContext) -> FluidBody:
         "relaxation": table.get("relaxation", number(), 0.01),
         "max_dt": table.get("max_dt", number(MIN_DT), 1.0 / 240.0),
         "gravity": table.get("gravity", vector(), (0.0, -9.81, 0.0)),
+        "structure": table.get("structure", one_of(*STRUCTURES), "grid"),
     }
     model = build(table.path, fluids.FluidModel, spacing=spacing, phases=phases,
                   boundaries=tuple(walls), **settings)  # fmt: skip
