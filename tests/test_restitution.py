@@ -8,8 +8,8 @@ import motes.rigid as mr
 import naive_restitution as naive
 from motes.collide import Plane, Sphere
 from motes.collide.contact import Detection, pack
+from motes.collide.sphere_kernels import project_pairs, restitute_pairs
 from motes.rigid.restitution import restitute_contacts
-from motes.rigid.sphere_contacts import project_spheres, restitute_spheres
 
 H = 1 / 60
 
@@ -57,7 +57,10 @@ def test_sphere_kernels_match_numpy():
     members = np.sort(rng.choice(k, 30, replace=False)).astype(np.int64)
     expected = naive.project_spheres(x, inv_mass, radius, members)
     xx = rows(x)
-    project_spheres(*xx, inv_mass, radius, members, np.zeros(k, dtype=np.int64))
+    first, second = np.triu_indices(len(members), k=1)  # the twin's pair order
+    pairs = np.stack([members[first], members[second]], axis=1)
+    hits = np.zeros(k, dtype=np.int64)
+    project_pairs(*xx, *xx.copy(), inv_mass, radius, pairs, 0.0, np.zeros(3), 0.0, hits)
     assert_allclose(xx.T, expected, atol=1e-12)
     # Velocity pass on the projected positions (pairs now touch within the slop).
     x = expected
@@ -66,7 +69,8 @@ def test_sphere_kernels_match_numpy():
     e = rng.uniform(0, 1, len(members))
     want = naive.restitute_spheres(x, q, before, inv_mass, radius, members, e, 1e-4)
     qq = rows(q)
-    restitute_spheres(*rows(x), *qq, *rows(before), inv_mass, radius, members, e, 1e-4)
+    pair_e = np.minimum(e[first], e[second])
+    restitute_pairs(*rows(x), *qq, *rows(before), inv_mass, radius, pairs, pair_e, 1e-4)
     assert_allclose(qq.T, want, atol=1e-12)
     assert np.abs(want - q).max() > 1e-3
 

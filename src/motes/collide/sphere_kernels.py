@@ -19,6 +19,14 @@ start of the step (``(x - q) / h`` is the velocity).
 - **Velocity pass** (Müller et al. 2020, §3.5, eq. 34): for a pair touching after the
   solve, the relative normal velocity becomes ``-e`` times the one before the solve; below
   ``2 |g| h`` the contact stays inelastic (a resting pile must not jitter).
+
+Emitter systems (:class:`motes.collide.spheres.ParticleCollisions`) and rigid worlds'
+sphere particles (:meth:`motes.rigid.World.add_sphere_contacts`: balls, pendulum bobs)
+both use these passes. A row of touching spheres struck at one end: the position pass
+shares the push along the whole row within one substep, and the velocity pass then sees
+only the first pair approaching. The blow passes from sphere to sphere (a Newton's
+cradle) when the spheres meet pair by pair: hang them a little apart, further than a
+sphere moves in a substep.
 """
 
 from __future__ import annotations
@@ -92,18 +100,17 @@ def project_pairs(px, py, pz, qx, qy, qz, inv_mass, radius, pairs, friction, up,
 
 @serial_kernel
 def restitute_pairs(px, py, pz, qx, qy, qz, bx, by, bz, inv_mass, radius, pairs, e, rest):
-    """Velocity pass over touching ``pairs``: restitution ``e`` (scalar) of each contact.
+    """Velocity pass over touching ``pairs``: restitution ``e[k]`` (p,) of pair ``k``
+    (0: the pair is skipped, left inelastic by the position pass).
 
     ``b`` are the positions before the solve, ``q`` those at the start of the step
     (rewritten so that ``(x - q) / h`` is the new velocity); ``rest`` = ``2 |g| h²`` [m]
     (the inelastic threshold speed times ``h``).
     """
-    if e <= 0.0:
-        return
     for k in range(pairs.shape[0]):
         i, j = pairs[k, 0], pairs[k, 1]
         w = inv_mass[i] + inv_mass[j]
-        if w <= 0.0:
+        if w <= 0.0 or e[k] <= 0.0:
             continue
         dx, dy, dz = px[j] - px[i], py[j] - py[i], pz[j] - pz[i]
         d = np.sqrt(dx * dx + dy * dy + dz * dz)
@@ -119,7 +126,7 @@ def restitute_pairs(px, py, pz, qx, qy, qz, bx, by, bz, inv_mass, radius, pairs,
         after = (px[j] - qx[j] - px[i] + qx[i]) * nx
         after += (py[j] - qy[j] - py[i] + qy[i]) * ny
         after += (pz[j] - qz[j] - pz[i] + qz[i]) * nz
-        dv = (-after - e * before) / w  # relative change, per unit inverse mass
+        dv = (-after - e[k] * before) / w  # relative change, per unit inverse mass
         qx[i] += inv_mass[i] * dv * nx
         qy[i] += inv_mass[i] * dv * ny
         qz[i] += inv_mass[i] * dv * nz

@@ -162,7 +162,8 @@ class ParticleCollisions(KindContact):
         self.last_contacts = int(touched.sum()) // 2
         touched += grounded
         rest = 2.0 * g * dt * dt
-        restitute_pairs(*x, *q, *before, inv_mass, radius, pairs, self.restitution, rest)
+        restitution = np.full(len(pairs), self.restitution)
+        restitute_pairs(*x, *q, *before, inv_mass, radius, pairs, restitution, rest)
         changed = (touched > 0) | np.any(q != start, axis=0)
         if changed.any():
             index = np.flatnonzero(changed)

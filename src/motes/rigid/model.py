@@ -227,6 +227,12 @@ class WorldModel:
     int64, shape (s,)."""
     sphere_restitution: np.ndarray
     """Restitution of each sphere particle, in [0, 1], shape (s,)."""
+    sphere_pairs: np.ndarray
+    """Every pair of sphere particles ``(i, j)``, ``i < j``, sorted, int64, shape
+    (s (s - 1) / 2, 2): the pairs the sphere contacts test
+    (:mod:`motes.collide.sphere_kernels`)."""
+    sphere_pair_restitution: np.ndarray
+    """Restitution of each pair, the smaller of its two spheres', shape (s (s - 1) / 2,)."""
     solid: bool
     """Body contacts run: some body has faces, and there is more than one body."""
     swept: bool
@@ -287,6 +293,7 @@ def build_model(
     table, tri, cell_start, cell_tris = pack(colliders, detections)
     members = np.array(sorted(spheres), dtype=np.int64)
     sphere_e = np.array([spheres[i] for i in members.tolist()], dtype=np.float64)
+    first, second = np.triu_indices(len(members), k=1)  # member pairs in member order
     return WorldModel(
         parameters=parameters,
         particle_count=n,
@@ -313,6 +320,8 @@ def build_model(
         mesh_cell_triangles=cell_tris,
         sphere_particles=members,
         sphere_restitution=sphere_e,
+        sphere_pairs=np.stack([members[first], members[second]], axis=1).reshape(-1, 2),
+        sphere_pair_restitution=np.minimum(sphere_e[first], sphere_e[second]),
         solid=any(plane_sizes) and len(frames) > 1,
         swept=bool(table[:, SWEPT].any()) if len(table) else False,
         bounce=bool(len(table) and table[:, RESTITUTION].any()) or bool(sphere_e.any()),

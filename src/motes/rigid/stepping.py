@@ -11,7 +11,7 @@ the model's substeps; each substep of ``h`` (Jakobsen 2001, §2–4) launches, i
    (:mod:`motes.collide.swept`);
 4. ``iterations`` times: the constraint sweep (:mod:`motes.constrain`), the projection
    out of colliders (:mod:`motes.collide.contact`), the sphere contacts
-   (:mod:`motes.rigid.sphere_contacts`), the body contacts
+   (:mod:`motes.collide.sphere_kernels`), the body contacts
    (:mod:`motes.rigid.body_contacts`) and the pins;
 5. the velocity pass giving contacts their restitution (Müller et al. 2020, §3.5;
    :mod:`motes.rigid.restitution`).
@@ -26,15 +26,18 @@ import numpy as np
 from .. import _validate as check
 from .._jit import threads_for
 from ..collide.contact import project_contacts
+from ..collide.sphere_kernels import project_pairs, restitute_pairs
 from ..collide.swept import sweep_contacts
 from ..forces.apply import add_forces
 from .body_contacts import body_contacts
 from .kernels import verlet
 from .model import WorldModel
 from .restitution import restitute_contacts
-from .sphere_contacts import project_spheres, restitute_spheres
 from .state import WorldControl, WorldState, WorldWorkspace
 from .transform import body_transforms
+
+#: The sphere contacts' stacking direction: none (true masses).
+_NO_UP = np.zeros(3)
 
 
 def step(
@@ -150,10 +153,10 @@ def _restitute(model: WorldModel, state: WorldState, before: np.ndarray, h: floa
             *x, *q, *before, radius, inv_mass, model.collider_table,
             model.mesh_triangles, model.mesh_cell_start, model.mesh_cell_triangles, rest,
         )  # fmt: skip
-    if len(model.sphere_particles) > 1:
-        restitute_spheres(
-            *x, *q, *before, inv_mass, radius, model.sphere_particles,
-            model.sphere_restitution, rest,
+    if len(model.sphere_pairs):
+        restitute_pairs(
+            *x, *q, *before, inv_mass, radius, model.sphere_pairs,
+            model.sphere_pair_restitution, rest,
         )  # fmt: skip
 
 
@@ -182,7 +185,7 @@ def _substep(
         workspace.particle_before[:] = x  # for the velocity pass (restitution)
     constraints = model.constraints
     constraints.reset_multipliers()
-    spheres = model.sphere_particles
+    spheres = model.sphere_pairs
     shake = p.projection == "shake"
     for _ in range(p.iterations):
         if len(constraints):
@@ -196,8 +199,8 @@ def _substep(
             )
         if len(table):
             project_contacts(*x, *q, radius, inv_mass, table, tri, cell_start, cell_tris, hits)
-        if len(spheres) > 1:
-            project_spheres(*x, inv_mass, radius, spheres, hits)
+        if len(spheres):  # no friction, true masses (stacking 0)
+            project_pairs(*x, *q, inv_mass, radius, spheres, 0.0, _NO_UP, 0.0, hits)
         if model.solid:
             body_contacts(
                 *x,

@@ -353,7 +353,7 @@ class World:
         """Let particles collide with each other as spheres of their radius.
 
         Every pair among all particles added this way is tested (``O(k²)``: for tens to
-        hundreds of balls or bobs; see :mod:`motes.rigid.sphere_contacts`). ``restitution`` in
+        hundreds of balls or bobs; see :mod:`motes.collide.sphere_kernels`). ``restitution`` in
         [0, 1] is kept for the normal velocity of a pair (the smaller of the two).
         """
         idx = np.atleast_1d(np.asarray(indices))

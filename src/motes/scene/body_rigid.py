@@ -269,7 +269,7 @@ def pendulums(table: Table, context: BuildContext) -> RigidScene:
     """A Newton's cradle: a row of sphere bobs on V-shaped strings, the first pulled
     back. The bobs collide as spheres with restitution (a velocity pass after the
     relaxation), hung a little apart so that they meet pair by pair and the blow passes
-    down the row to the last bob (see :mod:`motes.rigid.sphere_contacts`)."""
+    down the row to the last bob (see :mod:`motes.collide.sphere_kernels`)."""
     world = read_world(table, context)
     count = table.get("count", integer(1, 20), 5)
     length = table.get("length", positive(), 1.0)
