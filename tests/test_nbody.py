@@ -23,7 +23,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 import naive_nbody as naive
 from motes import ParticleSystem
-from motes.emit.nbody import disc_galaxy, kepler_pair, plummer_sphere
+from motes.emit.nbody import add_particles, disc_galaxy, kepler_pair, plummer_sphere
 from motes.forces import Coulomb, NBodyGravity, PairForce, lennard_jones
 from motes.forces.apply import add_forces
 from motes.forces.nbody import K_COULOMB, inverse_square, pair_potential_sum
@@ -516,3 +516,41 @@ def test_ring_bodies_are_on_circular_orbits_in_their_plane():
     assert np.linalg.norm(one) == pytest.approx(2.0)
     with pytest.raises(ValueError, match="inner_radius"):
         ring(3, central_mass=1.0, radius=1.0, inner_radius=2.0)
+
+
+def test_leapfrog_evaluates_position_forces_once_per_step_with_the_same_result():
+    """With forces of the positions alone, the leapfrog carries its end acceleration to
+    the next step: one evaluation per step (after the first), and the same bits as
+    evaluating it afresh every step."""
+    from motes.forces.base import Force
+
+    class Counted(Force):
+        reads = ("position",)
+
+        def __init__(self):
+            self.inner = NBodyGravity(G=1.0, softening=0.05, method="direct")
+            self.calls = 0
+
+        def bind(self, store):
+            self.inner.bind(store)
+
+        def accumulate(self, store, position, velocity, time, out):
+            self.calls += 1
+            self.inner.accumulate(store, position, velocity, time, out)
+
+    def run(forget):
+        system = ParticleSystem(64, integrator="velocity_verlet", dtype=np.float64)
+        force = Counted()
+        system.add(force)
+        x, v, m = plummer_sphere(64, seed=3)
+        add_particles(system, x, v, mass=m, lifetime=np.full(64, np.inf))
+        for _ in range(20):
+            if forget:
+                system._carried = None
+            system.step(0.01)
+        return system["position"].copy(), force.calls
+
+    carried, calls = run(False)
+    fresh, fresh_calls = run(True)
+    assert calls == 21 and fresh_calls == 40
+    np.testing.assert_array_equal(carried, fresh)

@@ -30,7 +30,9 @@ class Integrator(StrEnum):
 
     The first three run in the single fused kernel; the last two evaluate forces several
     times per step. For velocity-dependent forces, ``velocity_verlet`` evaluates ``a(x')``
-    at the predicted velocity ``v + h a`` (exact for position-only forces).
+    at the predicted velocity ``v + h a`` (exact for position-only forces); with forces
+    of the positions alone a system carries that end acceleration to its next step, so
+    the leapfrog then costs one evaluation per step.
     """
 
     EXPLICIT_EULER = "explicit_euler"

@@ -10,15 +10,24 @@ from __future__ import annotations
 import numpy as np
 
 
-def velocity_verlet(x, v, t, dt, acceleration) -> None:
-    """x' = x + h v + h²/2 a(x, v);  v' = v + h/2 (a(x, v) + a(x', v + h a))."""
-    a0 = np.empty_like(x)
-    acceleration(x, v, t, a0)
+def velocity_verlet(x, v, t, dt, acceleration, *, start=None) -> np.ndarray:
+    """x' = x + h v + h²/2 a(x, v);  v' = v + h/2 (a(x, v) + a(x', v + h a)).
+
+    ``start``: ``a(x, v)`` when the caller already has it (the end acceleration of the
+    previous step, for forces of the position alone: then each step evaluates the forces
+    once, not twice). Returns the end acceleration ``a(x', v + h a)`` (a new array).
+    """
+    if start is None:
+        a0 = np.empty_like(x)
+        acceleration(x, v, t, a0)
+    else:
+        a0 = start
     x += dt * v + (0.5 * dt * dt) * a0
     predicted = v + dt * a0
     a1 = np.empty_like(x)
     acceleration(x, predicted, t + dt, a1)
     v += (0.5 * dt) * (a0 + a1)
+    return a1
 
 
 def rk4(x, v, t, dt, acceleration) -> None:
