@@ -9,8 +9,9 @@ import pytest
 
 import motes as mo
 from motes.render.frame import Frame
-from motes.render.geometry import Box, Ground, Sphere, draw_geometry
+from motes.render.geometry import Box, Ground, Sphere, casters, draw_geometry
 from motes.render.shading import AmbientLight, DirectionalLight
+from motes.render.shadow_pass import prepare
 
 # A top view of the ground: 200 px per metre over x in [-0.3, 1.7], z in [-1, 1].
 SIZE, HEIGHT = 400, 2.0
@@ -22,7 +23,8 @@ def _top_view(objects, light_direction, shadows=True):
                        resolution=(SIZE, SIZE))  # fmt: skip
     frame = Frame(SIZE, SIZE)
     lights = [DirectionalLight(light_direction, shadows=shadows), AmbientLight((0.2,) * 3)]
-    draw_geometry(frame, camera, objects, lights=lights, supersample=1)
+    shadowing = prepare(lights, casters(objects), camera)
+    draw_geometry(frame, camera, objects, lights=lights, supersample=1, shadowing=shadowing)
     right, up, _ = camera.basis
     j, i = np.mgrid[0:SIZE, 0:SIZE]
     offset = (i + 0.5 - SIZE / 2)[..., None] * right + (SIZE / 2 - j - 0.5)[..., None] * up
@@ -86,8 +88,6 @@ def test_a_slab_of_particles_attenuates_the_light_as_beer_lambert_says():
     optical depth τ = N π r² (-ln(1 - α)) / area. The mean over the slab's middle matches
     within 5 % (the splat's texel-scale clumping makes it a little brighter, by about
     var(τ)/2 ≈ 2 %)."""
-    from motes.render.shadows import prepare
-
     rng = np.random.default_rng(2)
     n, r, alpha = 40_000, 0.03, 0.035
     positions = np.stack([rng.uniform(-1.0, 1.0, n), rng.uniform(0.5, 0.7, n),
@@ -117,7 +117,6 @@ def test_a_slab_of_particles_attenuates_the_light_as_beer_lambert_says():
 def test_lit_particles_are_darker_in_the_shadow_of_others():
     """A dense puff above a particle shades it; a particle beside the puff is fully lit."""
     from motes.render.lighting import light_particles
-    from motes.render.shadows import prepare
 
     rng = np.random.default_rng(3)
     puff = rng.normal((0.0, 2.0, 0.0), 0.1, (3000, 3))

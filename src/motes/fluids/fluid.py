@@ -21,7 +21,7 @@ from ..collide.swept import sweep_contacts
 from ..forces.apply import add_forces, check_force
 from ..forces.base import Force
 from ..spatial import UniformGrid, spatial_index
-from ..spatial.neighbors import sorted_neighbors
+from ..spatial.index import sorted_neighbors
 from ..state import Field, ParticleState
 from . import kernels
 from .boundaries import MeshWall, pack

@@ -28,7 +28,7 @@ from ._raster import CORNER, LINE_SIZE, draw_tiles, project_vertices, setup_line
 from .camera import Camera
 from .frame import Frame
 from .shading import SURFACE_SIZE, Material, rgb, surface_row
-from .shadows import Shadowing, prepare
+from .shadows import Shadowing, unshadowed
 from .tiles import bin_boxes
 
 __all__ = ["Box", "Capsule", "Ground", "Lines", "Mesh", "Sphere", "draw_geometry"]
@@ -517,8 +517,8 @@ def draw_geometry(
         of which was drawn are left exactly as they were.
     shadowing : Shadowing, optional
         The lights with their shadow and opacity maps for this frame
-        (:func:`motes.render.shadows.prepare`); by default made here from ``lights`` and
-        the objects that cast shadows.
+        (:func:`motes.render.shadow_pass.prepare`, which the renderer calls); by default
+        ``lights`` without shadows.
 
     Notes
     -----
@@ -553,7 +553,7 @@ def draw_geometry(
     positions, normals, colors, faces, face_surface, surfaces = _combine(sets)
     ends, seg_colors, widths = _combine_lines(line_sets)
     if shadowing is None:
-        shadowing = prepare(lights, casters(objects), camera)
+        shadowing = unshadowed(lights)
 
     cam = camera.packed()
     view = np.empty_like(positions)

@@ -23,7 +23,7 @@ from .camera import Camera
 from .frame import Frame
 from .geometry import casters, draw_geometry
 from .lighting import light_particles
-from .shadows import prepare
+from .shadow_pass import prepare
 from .sprites import Blend, SpriteRasterizer, SpriteStyle
 from .tonemap import to_srgb8
 

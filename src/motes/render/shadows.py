@@ -26,12 +26,6 @@ import numpy as np
 from .._jit import called, device
 from .camera import EYE, FORWARD, HEIGHT, PACKED_SIZE, RIGHT, SCALE, UP, WIDTH, Camera
 from .shading import (
-    LIGHT_OPACITY,
-    LIGHT_SHADOW,
-    AmbientLight,
-    DirectionalLight,
-    PointLight,
-    default_lights,
     pack_lights,
 )
 
@@ -131,60 +125,21 @@ class Shadowing:
     arrays: tuple
 
 
-def prepare(lights, casters, camera, particles=()) -> Shadowing:
-    """Shadow maps of opaque ``casters`` and opacity maps of ``particles`` for every
-    directional light that casts shadows.
-
-    ``casters``: geometry objects that cast shadows; ``particles``: ``(positions (n, 3),
-    radius (n,), alpha (n,))`` of particle systems that cast shadows.
-    """
-    from .frame import Frame
-    from .geometry import draw_geometry
-    from .opacity import GRID, SLICES, opacity_map
-
+def unshadowed(lights) -> Shadowing:
+    """The packed ``lights`` with no shadow or opacity maps."""
     packed, ambient = pack_lights(lights)
-    if lights is None or isinstance(lights, (DirectionalLight, PointLight, AmbientLight)):
-        lights = default_lights() if lights is None else [lights]
-    rows = [x for x in lights if isinstance(x, (DirectionalLight, PointLight))]
-    shadowed = [k for k, x in enumerate(rows) if isinstance(x, DirectionalLight) and x.shadows]
-    cams, maps, o_cams, o_maps, o_depth = [], [], [], [], []
-    if shadowed and casters:
-        points = np.concatenate([o.triangles(camera).positions for o in casters])
-        center, radius = casters_sphere(points)
-        for k in shadowed:
-            view = light_camera(rows[k].direction, center, radius)
-            depth = Frame(RESOLUTION, RESOLUTION)
-            draw_geometry(depth, view, casters, lights=[AmbientLight((0, 0, 0))], supersample=1)
-            packed[k, LIGHT_SHADOW] = len(maps)
-            cams.append(view.packed())
-            maps.append(depth.depth)
-    particles = [p for p in particles if len(p[0])]
-    if shadowed and particles:
-        points = np.concatenate([p[0] for p in particles])
-        center, radius = casters_sphere(points)
-        radius += max(float(p[1].max()) for p in particles)
-        positions = np.concatenate([p[0] for p in particles])
-        sizes = np.concatenate([p[1] for p in particles])
-        alphas = np.concatenate([p[2] for p in particles])
-        for k in shadowed:
-            view = light_camera(rows[k].direction, center, radius, GRID)
-            grid, z0, inv_dz = opacity_map(view, positions, sizes, alphas)
-            packed[k, LIGHT_OPACITY] = len(o_maps)
-            o_cams.append(view.packed())
-            o_maps.append(grid)
-            o_depth.append((z0, inv_dz))
+    return Shadowing(packed, ambient, empty_maps())
 
-    def stack(items, shape, dtype=np.float64):
-        return np.stack(items).astype(dtype) if items else np.zeros(shape, dtype)
 
-    arrays = (
-        stack(cams, (0, PACKED_SIZE)),
-        stack(maps, (0, 1, 1), np.float32),
-        stack(o_cams, (0, PACKED_SIZE)),
-        stack(o_maps, (0, 1, 1, SLICES + 1), np.float32),
-        stack(o_depth, (0, 2)),
+def empty_maps() -> tuple:
+    """:attr:`Shadowing.arrays` holding no map (the kernels type them by dimensions)."""
+    return (
+        np.zeros((0, PACKED_SIZE)),
+        np.ones((0, 1, 1), np.float32),
+        np.zeros((0, PACKED_SIZE)),
+        np.zeros((0, 1, 1, 1), np.float32),
+        np.zeros((0, 2)),
     )
-    return Shadowing(packed, ambient, arrays)
 
 
 def casters_sphere(positions: np.ndarray) -> tuple[np.ndarray, float]:

@@ -65,3 +65,26 @@ def spatial_index(structure: str, *, cell_size: float | None = None, leaf_size: 
         raise ValueError(f"cell_size applies to the 'grid' structure only, not {structure!r}")
     tree = Octree if structure == "octree" else KDTree
     return tree() if leaf_size is None else tree(leaf_size=leaf_size)
+
+
+def sorted_neighbors(index, positions: np.ndarray, radius: float):
+    """Build ``index`` (a spatial structure) on ``positions`` (3, n) and return CSR lists
+    within ``radius`` [m] numbered in the structure's sorted order: ``(offsets, indices,
+    order)``, where row ``r`` and entry values are sorted slots and ``order[r]`` is the
+    point in slot ``r``. A solver that permutes its particles by ``order`` then reads
+    neighbours from nearby memory."""
+    index.build(positions)
+    if isinstance(index, UniformGrid):
+        lists = index.neighbors(radius, slots=True)
+        return lists.offsets, lists.indices, index.order
+    lists = index.neighbors(radius)
+    order = index.order
+    slot_of = np.empty(order.shape[0], np.int64)
+    slot_of[order] = np.arange(order.shape[0])
+    counts = lists.counts[order]
+    offsets = np.zeros(order.shape[0] + 1, np.int64)
+    np.cumsum(counts, out=offsets[1:])
+    starts = np.repeat(lists.offsets[:-1][order], counts)
+    within = np.arange(int(offsets[-1])) - np.repeat(offsets[:-1], counts)
+    indices = slot_of[lists.indices[starts + within]].astype(np.int32)
+    return offsets, indices, order

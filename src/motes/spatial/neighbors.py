@@ -83,28 +83,3 @@ def points_rows(name: str, value) -> np.ndarray:
     if not np.isfinite(arr).all():
         raise ValueError(f"{name} must be finite (no NaN or inf)")
     return arr
-
-
-def sorted_neighbors(index, positions: np.ndarray, radius: float):
-    """Build ``index`` (a spatial structure) on ``positions`` (3, n) and return CSR lists
-    within ``radius`` [m] numbered in the structure's sorted order: ``(offsets, indices,
-    order)``, where row ``r`` and entry values are sorted slots and ``order[r]`` is the
-    point in slot ``r``. A solver that permutes its particles by ``order`` then reads
-    neighbours from nearby memory."""
-    from .grid import UniformGrid
-
-    index.build(positions)
-    if isinstance(index, UniformGrid):
-        lists = index.neighbors(radius, slots=True)
-        return lists.offsets, lists.indices, index.order
-    lists = index.neighbors(radius)
-    order = index.order
-    slot_of = np.empty(order.shape[0], np.int64)
-    slot_of[order] = np.arange(order.shape[0])
-    counts = lists.counts[order]
-    offsets = np.zeros(order.shape[0] + 1, np.int64)
-    np.cumsum(counts, out=offsets[1:])
-    starts = np.repeat(lists.offsets[:-1][order], counts)
-    within = np.arange(int(offsets[-1])) - np.repeat(offsets[:-1], counts)
-    indices = slot_of[lists.indices[starts + within]].astype(np.int32)
-    return offsets, indices, order
