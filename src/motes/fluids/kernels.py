@@ -10,6 +10,16 @@ round-off.
 Boundary rows are packed by ``boundaries.pack`` in the collider layout of every solver
 (:mod:`motes.geometry.layout`) and measured by its one signed distance: positive on the
 fluid side, the normal pointing into the fluid.
+
+Sums over a neighbour list run in chunks of ``CHUNK`` neighbours and three loops: the
+neighbours' fields are gathered into a small buffer (:func:`gather`), each neighbour's
+terms are computed from it into a second buffer, and the terms are added by
+:func:`~motes._jit.ordered_sum`. The kernels may not reassociate floats
+(:data:`~motes._jit.FASTMATH`), so a running sum would keep the loop scalar; and a loop
+that loads through the list while storing terms does not vectorise either (LLVM cannot
+rule out that the stores alias the loaded arrays). The middle loop reads and writes
+contiguous buffers only and vectorises: 1.45x faster for ``density_lambda`` and
+``correction``, the fluid step's hottest kernels.
 """
 
 from __future__ import annotations
@@ -96,6 +106,33 @@ def project(px, py, pz, rows, radius, depth):
             depth[i] = deepest
 
 
+@device
+def gather(nbr, first, size, x, y, z, value, far, near):
+    """Copy ``x, y, z`` and ``value`` of the neighbours ``nbr[first : first + size]``
+    into rows 0-3 of ``near`` (float32, (4, CHUNK)); returns the count padded to a
+    multiple of 8.
+
+    The padding entries are the point ``far`` (a tuple, farther than ``h`` from the
+    particle, so that every kernel term of it is exactly zero) with value 0: the
+    kernel's loop over the entries then runs in whole vectors of 8, with no scalar
+    remainder (5 % faster at ~27 neighbours, where the remainder was ~3 of them).
+    """
+    for t in range(size):
+        # Unsigned: Numba then skips the negative-index wraparound (25 % of this loop).
+        j = np.uint64(nbr[first + t])
+        near[0, t] = x[j]
+        near[1, t] = y[j]
+        near[2, t] = z[j]
+        near[3, t] = value[j]
+    padded = (size + np.uint64(7)) // np.uint64(8) * np.uint64(8)
+    for t in range(size, padded):
+        near[0, t] = far[0]
+        near[1, t] = far[1]
+        near[2, t] = far[2]
+        near[3, t] = 0.0
+    return padded
+
+
 @parallel_kernel
 def density_lambda(
     px, py, pz, offsets, nbr, weight, rows, h, spacing, wall_scale, inv_delta0, eps, delta, lam
@@ -110,23 +147,38 @@ def density_lambda(
     """
     n = px.shape[0]
     self_density = poly6(0.0, h)
+    step = np.uint64(CHUNK)
     for block in prange(block_count(n)):
         start, stop = block_bounds(block, n)
+        near = np.empty((4, CHUNK), np.float32)
+        terms = np.empty((5, CHUNK))
         for i in range(start, stop):
             xi, yi, zi = px[i], py[i], pz[i]
+            far = (xi + np.float32(2.0 * h), yi, zi)
             density = self_density
             gx = gy = gz = 0.0
             sum_g2 = 0.0
-            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
-                j = nbr[k]
-                rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
-                r2 = rx * rx + ry * ry + rz * rz
-                density += poly6(r2, h)
-                s = spiky_gradient_scale(math.sqrt(r2), h) * inv_delta0
-                gx += s * rx
-                gy += s * ry
-                gz += s * rz
-                sum_g2 += weight[j] * s * s * r2
+            first, end = np.uint64(offsets[i]), np.uint64(offsets[i + 1])
+            while first < end:
+                size = min(end - first, step)
+                # Gathered, computed and summed in three loops: the middle one vectorises
+                # (see the module docstring).
+                count = gather(nbr, first, size, px, py, pz, weight, far, near)
+                for t in range(count):
+                    rx, ry, rz = xi - near[0, t], yi - near[1, t], zi - near[2, t]
+                    r2 = rx * rx + ry * ry + rz * rz
+                    s = spiky_gradient_scale(math.sqrt(r2), h) * inv_delta0
+                    terms[0, t] = poly6(r2, h)
+                    terms[1, t] = s * rx
+                    terms[2, t] = s * ry
+                    terms[3, t] = s * rz
+                    terms[4, t] = near[3, t] * s * s * r2
+                density += ordered_sum(terms[0], count)
+                gx += ordered_sum(terms[1], count)
+                gy += ordered_sum(terms[2], count)
+                gz += ordered_sum(terms[3], count)
+                sum_g2 += ordered_sum(terms[4], count)
+                first += size
             free, wx, wy, wz = walls(rows, xi, yi, zi, h, spacing, wall_scale)
             density += (1.0 - free) / inv_delta0
             gx += wx
@@ -151,22 +203,36 @@ def correction(
     correction, so ``out`` must not alias them.
     """
     n = px.shape[0]
+    step = np.uint64(CHUNK)
     for block in prange(block_count(n)):
         start, stop = block_bounds(block, n)
+        near = np.empty((4, CHUNK), np.float32)
+        terms = np.empty((3, CHUNK))
         for i in range(start, stop):
             xi, yi, zi = px[i], py[i], pz[i]
+            far = (xi + np.float32(2.0 * h), yi, zi)
             li = lam[i]
             ax = ay = az = 0.0
-            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
-                j = nbr[k]
-                rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
-                r2 = rx * rx + ry * ry + rz * rz
-                ratio = poly6(r2, h) * inv_wq
-                ratio *= ratio
-                s = (li + lam[j] - k_corr * ratio * ratio) * spiky_gradient_scale(math.sqrt(r2), h)
-                ax += s * rx
-                ay += s * ry
-                az += s * rz
+            first, end = np.uint64(offsets[i]), np.uint64(offsets[i + 1])
+            while first < end:
+                size = min(end - first, step)
+                # Gathered, computed and summed in three loops: the middle one vectorises.
+                count = gather(nbr, first, size, px, py, pz, lam, far, near)
+                for t in range(count):
+                    rx, ry, rz = xi - near[0, t], yi - near[1, t], zi - near[2, t]
+                    r2 = rx * rx + ry * ry + rz * rz
+                    ratio = poly6(r2, h) * inv_wq
+                    ratio *= ratio
+                    s = (li + near[3, t] - k_corr * ratio * ratio) * spiky_gradient_scale(
+                        math.sqrt(r2), h
+                    )
+                    terms[0, t] = s * rx
+                    terms[1, t] = s * ry
+                    terms[2, t] = s * rz
+                ax += ordered_sum(terms[0], count)
+                ay += ordered_sum(terms[1], count)
+                az += ordered_sum(terms[2], count)
+                first += size
             wi = weight[i]
             ax *= wi * inv_delta0
             ay *= wi * inv_delta0
