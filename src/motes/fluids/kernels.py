@@ -18,8 +18,10 @@ terms are computed from it into a second buffer, and the terms are added by
 (:data:`~motes._jit.FASTMATH`), so a running sum would keep the loop scalar; and a loop
 that loads through the list while storing terms does not vectorise either (LLVM cannot
 rule out that the stores alias the loaded arrays). The middle loop reads and writes
-contiguous buffers only and vectorises: 1.45x faster for ``density_lambda`` and
-``correction``, the fluid step's hottest kernels.
+contiguous buffers only and vectorises. For 100,000 particles on one thread:
+``density_lambda`` 18.4 -> 10.5 ms, ``correction`` 19.2 -> 11.4 ms, ``exchange`` (XSPH)
+16.7 -> 12.9 ms, against a running sum in one loop (11.8, 12.5 and 15.2 ms when the
+flags still let LLVM reassociate it).
 """
 
 from __future__ import annotations
@@ -285,51 +287,79 @@ def exchange(
     h2 = h * h
     lecture_on = k_visc > 0.0
     pairs_on = repulsion > 0.0 or gamma.max() > 0.0
+    nx, ny, nz = normals[0], normals[1], normals[2]
+    step = np.uint64(CHUNK)
     for block in prange(block_count(n)):
         start, stop = block_bounds(block, n)
+        near = np.empty((4, CHUNK), np.float32)  # x, y, z, δ of each neighbour
+        moving = np.empty((4, CHUNK), np.float32)  # v, m
+        surface = np.empty((4, CHUNK), np.float32)  # n, phase
+        terms = np.empty((3, CHUNK))
         for i in range(start, stop):
             xi, yi, zi = px[i], py[i], pz[i]
             ui, wi, si = vx[i], vy[i], vz[i]
             mi = mass[i]
             pi = phase[i]
+            di = delta[i]
+            far = (xi + np.float32(2.0 * h), yi, zi)
             fx = fy = fz = 0.0  # momentum change [kg m/s]
-            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
-                j = nbr[k]
-                rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
-                r2 = rx * rx + ry * ry + rz * rz
-                if r2 > h2:
-                    continue
-                mj = mass[j]
-                mu = 2.0 * mi * mj / (mi + mj)
-                smooth = xsph * mu * 2.0 * poly6(r2, h) / (delta[i] + delta[j])
-                fx += smooth * (vx[j] - ui)
-                fy += smooth * (vy[j] - wi)
-                fz += smooth * (vz[j] - si)
-                # Terms that are off are skipped (a predictable branch): the exponential
-                # and the square root cost more than the rest of the pair.
+            first, end = np.uint64(offsets[i]), np.uint64(offsets[i + 1])
+            while first < end:
+                size = min(end - first, step)
+                # Gathered, computed and summed in three loops (see the module docstring);
+                # padding entries have mass 0 and lie beyond h: all their terms are 0.
+                count = gather(nbr, first, size, px, py, pz, delta, far, near)
+                gather(nbr, first, size, vx, vy, vz, mass, far, moving)
+                # XSPH, in a loop of its own so that it vectorises; the terms that may be
+                # off are added in loops of their own (the exponential, the square root
+                # and the phase test would keep XSPH's loop scalar).
+                for t in range(count):
+                    rx, ry, rz = xi - near[0, t], yi - near[1, t], zi - near[2, t]
+                    r2 = rx * rx + ry * ry + rz * rz
+                    mj = moving[3, t]
+                    # xsph μ_ij 2 W / (δ_i + δ_j) with one division; symmetric in i, j.
+                    mimj = mi * mj
+                    smooth = xsph * 4.0 * mimj * poly6(r2, h) / ((mi + mj) * (di + near[3, t]))
+                    terms[0, t] = smooth * (moving[0, t] - ui)
+                    terms[1, t] = smooth * (moving[1, t] - wi)
+                    terms[2, t] = smooth * (moving[2, t] - si)
                 if lecture_on:
-                    lecture = k_visc * math.exp(-r2 * inv_two_sigma2) * dt
-                    fx += lecture * (mj * vx[j] - mi * ui)
-                    fy += lecture * (mj * vy[j] - mi * wi)
-                    fz += lecture * (mj * vz[j] - mi * si)
-                if not pairs_on:
-                    continue
-                r = math.sqrt(r2)
-                if r > 0.0:
-                    if phase[j] == pi:
-                        kij = 2.0 * delta0 / (delta[i] + delta[j])
-                        s = -gamma[pi] * mi * mj * kij * cohesion_spline(r, h) * dt / r
-                        # Curvature: masses are equal within a phase, so m_i here is
-                        # symmetric and the pair's terms cancel.
-                        c = -gamma[pi] * mi * kij * dt
-                        fx += c * (normals[0, i] - normals[0, j])
-                        fy += c * (normals[1, i] - normals[1, j])
-                        fz += c * (normals[2, i] - normals[2, j])
-                    else:
-                        s = repulsion * mu * spiky(r, h) / delta0 * dt / r
-                    fx += s * rx
-                    fy += s * ry
-                    fz += s * rz
+                    for t in range(count):
+                        rx, ry, rz = xi - near[0, t], yi - near[1, t], zi - near[2, t]
+                        r2 = rx * rx + ry * ry + rz * rz
+                        # Pairs beyond h (the lists are from the predicted positions): 0.
+                        lecture = k_visc * math.exp(-r2 * inv_two_sigma2) * dt * (r2 <= h2)
+                        mj = moving[3, t]
+                        terms[0, t] += lecture * (mj * moving[0, t] - mi * ui)
+                        terms[1, t] += lecture * (mj * moving[1, t] - mi * wi)
+                        terms[2, t] += lecture * (mj * moving[2, t] - mi * si)
+                if pairs_on:
+                    gather(nbr, first, size, nx, ny, nz, phase, far, surface)
+                    for t in range(count):
+                        rx, ry, rz = xi - near[0, t], yi - near[1, t], zi - near[2, t]
+                        r2 = rx * rx + ry * ry + rz * rz
+                        r = math.sqrt(r2)
+                        inv_r = (r > 0.0) / max(r, 1e-30 * h)
+                        mj = moving[3, t]
+                        kij = 2.0 * delta0 / (di + near[3, t])
+                        if surface[3, t] == pi:
+                            s = -gamma[pi] * mi * mj * kij * cohesion_spline(r, h) * dt * inv_r
+                            # Curvature: masses are equal within a phase, so m_i here is
+                            # symmetric and the pair's terms cancel.
+                            c = -gamma[pi] * mi * kij * dt * ((r2 <= h2) & (r > 0.0))
+                            terms[0, t] += c * (nx[i] - surface[0, t])
+                            terms[1, t] += c * (ny[i] - surface[1, t])
+                            terms[2, t] += c * (nz[i] - surface[2, t])
+                        else:
+                            mu = 2.0 * (mi * mj) / (mi + mj)
+                            s = repulsion * mu * spiky(r, h) / delta0 * dt * inv_r
+                        terms[0, t] += s * rx
+                        terms[1, t] += s * ry
+                        terms[2, t] += s * rz
+                fx += ordered_sum(terms[0], count)
+                fy += ordered_sum(terms[1], count)
+                fz += ordered_sum(terms[2], count)
+                first += size
             out[0, i] = ui + fx / mi
             out[1, i] = wi + fy / mi
             out[2, i] = si + fz / mi
