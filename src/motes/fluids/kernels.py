@@ -10,6 +10,18 @@ round-off.
 Boundary rows are packed by ``boundaries.pack`` in the collider layout of every solver
 (:mod:`motes.geometry.layout`) and measured by its one signed distance: positive on the
 fluid side, the normal pointing into the fluid.
+
+Sums over a neighbour list run in chunks of ``CHUNK`` neighbours and three loops: the
+neighbours' fields are gathered into a small buffer (:func:`gather`), each neighbour's
+terms are computed from it into a second buffer, and the terms are added by
+:func:`~motes._jit.ordered_sum`. The kernels may not reassociate floats
+(:data:`~motes._jit.FASTMATH`), so a running sum would keep the loop scalar; and a loop
+that loads through the list while storing terms does not vectorise either (LLVM cannot
+rule out that the stores alias the loaded arrays). The middle loop reads and writes
+contiguous buffers only and vectorises. For 100,000 particles on one thread:
+``density_lambda`` 18.4 -> 10.5 ms, ``correction`` 19.2 -> 11.4 ms, ``exchange`` (XSPH)
+16.7 -> 12.9 ms, against a running sum in one loop (11.8, 12.5 and 15.2 ms when the
+flags still let LLVM reassociate it).
 """
 
 from __future__ import annotations
@@ -96,6 +108,33 @@ def project(px, py, pz, rows, radius, depth):
             depth[i] = deepest
 
 
+@device
+def gather(nbr, first, size, x, y, z, value, far, near):
+    """Copy ``x, y, z`` and ``value`` of the neighbours ``nbr[first : first + size]``
+    into rows 0-3 of ``near`` (float32, (4, CHUNK)); returns the count padded to a
+    multiple of 8.
+
+    The padding entries are the point ``far`` (a tuple, farther than ``h`` from the
+    particle, so that every kernel term of it is exactly zero) with value 0: the
+    kernel's loop over the entries then runs in whole vectors of 8, with no scalar
+    remainder (5 % faster at ~27 neighbours, where the remainder was ~3 of them).
+    """
+    for t in range(size):
+        # Unsigned: Numba then skips the negative-index wraparound (25 % of this loop).
+        j = np.uint64(nbr[first + t])
+        near[0, t] = x[j]
+        near[1, t] = y[j]
+        near[2, t] = z[j]
+        near[3, t] = value[j]
+    padded = (size + np.uint64(7)) // np.uint64(8) * np.uint64(8)
+    for t in range(size, padded):
+        near[0, t] = far[0]
+        near[1, t] = far[1]
+        near[2, t] = far[2]
+        near[3, t] = 0.0
+    return padded
+
+
 @parallel_kernel
 def density_lambda(
     px, py, pz, offsets, nbr, weight, rows, h, spacing, wall_scale, inv_delta0, eps, delta, lam
@@ -110,23 +149,38 @@ def density_lambda(
     """
     n = px.shape[0]
     self_density = poly6(0.0, h)
+    step = np.uint64(CHUNK)
     for block in prange(block_count(n)):
         start, stop = block_bounds(block, n)
+        near = np.empty((4, CHUNK), np.float32)
+        terms = np.empty((5, CHUNK))
         for i in range(start, stop):
             xi, yi, zi = px[i], py[i], pz[i]
+            far = (xi + np.float32(2.0 * h), yi, zi)
             density = self_density
             gx = gy = gz = 0.0
             sum_g2 = 0.0
-            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
-                j = nbr[k]
-                rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
-                r2 = rx * rx + ry * ry + rz * rz
-                density += poly6(r2, h)
-                s = spiky_gradient_scale(math.sqrt(r2), h) * inv_delta0
-                gx += s * rx
-                gy += s * ry
-                gz += s * rz
-                sum_g2 += weight[j] * s * s * r2
+            first, end = np.uint64(offsets[i]), np.uint64(offsets[i + 1])
+            while first < end:
+                size = min(end - first, step)
+                # Gathered, computed and summed in three loops: the middle one vectorises
+                # (see the module docstring).
+                count = gather(nbr, first, size, px, py, pz, weight, far, near)
+                for t in range(count):
+                    rx, ry, rz = xi - near[0, t], yi - near[1, t], zi - near[2, t]
+                    r2 = rx * rx + ry * ry + rz * rz
+                    s = spiky_gradient_scale(math.sqrt(r2), h) * inv_delta0
+                    terms[0, t] = poly6(r2, h)
+                    terms[1, t] = s * rx
+                    terms[2, t] = s * ry
+                    terms[3, t] = s * rz
+                    terms[4, t] = near[3, t] * s * s * r2
+                density += ordered_sum(terms[0], count)
+                gx += ordered_sum(terms[1], count)
+                gy += ordered_sum(terms[2], count)
+                gz += ordered_sum(terms[3], count)
+                sum_g2 += ordered_sum(terms[4], count)
+                first += size
             free, wx, wy, wz = walls(rows, xi, yi, zi, h, spacing, wall_scale)
             density += (1.0 - free) / inv_delta0
             gx += wx
@@ -151,22 +205,36 @@ def correction(
     correction, so ``out`` must not alias them.
     """
     n = px.shape[0]
+    step = np.uint64(CHUNK)
     for block in prange(block_count(n)):
         start, stop = block_bounds(block, n)
+        near = np.empty((4, CHUNK), np.float32)
+        terms = np.empty((3, CHUNK))
         for i in range(start, stop):
             xi, yi, zi = px[i], py[i], pz[i]
+            far = (xi + np.float32(2.0 * h), yi, zi)
             li = lam[i]
             ax = ay = az = 0.0
-            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
-                j = nbr[k]
-                rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
-                r2 = rx * rx + ry * ry + rz * rz
-                ratio = poly6(r2, h) * inv_wq
-                ratio *= ratio
-                s = (li + lam[j] - k_corr * ratio * ratio) * spiky_gradient_scale(math.sqrt(r2), h)
-                ax += s * rx
-                ay += s * ry
-                az += s * rz
+            first, end = np.uint64(offsets[i]), np.uint64(offsets[i + 1])
+            while first < end:
+                size = min(end - first, step)
+                # Gathered, computed and summed in three loops: the middle one vectorises.
+                count = gather(nbr, first, size, px, py, pz, lam, far, near)
+                for t in range(count):
+                    rx, ry, rz = xi - near[0, t], yi - near[1, t], zi - near[2, t]
+                    r2 = rx * rx + ry * ry + rz * rz
+                    ratio = poly6(r2, h) * inv_wq
+                    ratio *= ratio
+                    s = (li + near[3, t] - k_corr * ratio * ratio) * spiky_gradient_scale(
+                        math.sqrt(r2), h
+                    )
+                    terms[0, t] = s * rx
+                    terms[1, t] = s * ry
+                    terms[2, t] = s * rz
+                ax += ordered_sum(terms[0], count)
+                ay += ordered_sum(terms[1], count)
+                az += ordered_sum(terms[2], count)
+                first += size
             wi = weight[i]
             ax *= wi * inv_delta0
             ay *= wi * inv_delta0
@@ -219,51 +287,79 @@ def exchange(
     h2 = h * h
     lecture_on = k_visc > 0.0
     pairs_on = repulsion > 0.0 or gamma.max() > 0.0
+    nx, ny, nz = normals[0], normals[1], normals[2]
+    step = np.uint64(CHUNK)
     for block in prange(block_count(n)):
         start, stop = block_bounds(block, n)
+        near = np.empty((4, CHUNK), np.float32)  # x, y, z, δ of each neighbour
+        moving = np.empty((4, CHUNK), np.float32)  # v, m
+        surface = np.empty((4, CHUNK), np.float32)  # n, phase
+        terms = np.empty((3, CHUNK))
         for i in range(start, stop):
             xi, yi, zi = px[i], py[i], pz[i]
             ui, wi, si = vx[i], vy[i], vz[i]
             mi = mass[i]
             pi = phase[i]
+            di = delta[i]
+            far = (xi + np.float32(2.0 * h), yi, zi)
             fx = fy = fz = 0.0  # momentum change [kg m/s]
-            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
-                j = nbr[k]
-                rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
-                r2 = rx * rx + ry * ry + rz * rz
-                if r2 > h2:
-                    continue
-                mj = mass[j]
-                mu = 2.0 * mi * mj / (mi + mj)
-                smooth = xsph * mu * 2.0 * poly6(r2, h) / (delta[i] + delta[j])
-                fx += smooth * (vx[j] - ui)
-                fy += smooth * (vy[j] - wi)
-                fz += smooth * (vz[j] - si)
-                # Terms that are off are skipped (a predictable branch): the exponential
-                # and the square root cost more than the rest of the pair.
+            first, end = np.uint64(offsets[i]), np.uint64(offsets[i + 1])
+            while first < end:
+                size = min(end - first, step)
+                # Gathered, computed and summed in three loops (see the module docstring);
+                # padding entries have mass 0 and lie beyond h: all their terms are 0.
+                count = gather(nbr, first, size, px, py, pz, delta, far, near)
+                gather(nbr, first, size, vx, vy, vz, mass, far, moving)
+                # XSPH, in a loop of its own so that it vectorises; the terms that may be
+                # off are added in loops of their own (the exponential, the square root
+                # and the phase test would keep XSPH's loop scalar).
+                for t in range(count):
+                    rx, ry, rz = xi - near[0, t], yi - near[1, t], zi - near[2, t]
+                    r2 = rx * rx + ry * ry + rz * rz
+                    mj = moving[3, t]
+                    # xsph μ_ij 2 W / (δ_i + δ_j) with one division; symmetric in i, j.
+                    mimj = mi * mj
+                    smooth = xsph * 4.0 * mimj * poly6(r2, h) / ((mi + mj) * (di + near[3, t]))
+                    terms[0, t] = smooth * (moving[0, t] - ui)
+                    terms[1, t] = smooth * (moving[1, t] - wi)
+                    terms[2, t] = smooth * (moving[2, t] - si)
                 if lecture_on:
-                    lecture = k_visc * math.exp(-r2 * inv_two_sigma2) * dt
-                    fx += lecture * (mj * vx[j] - mi * ui)
-                    fy += lecture * (mj * vy[j] - mi * wi)
-                    fz += lecture * (mj * vz[j] - mi * si)
-                if not pairs_on:
-                    continue
-                r = math.sqrt(r2)
-                if r > 0.0:
-                    if phase[j] == pi:
-                        kij = 2.0 * delta0 / (delta[i] + delta[j])
-                        s = -gamma[pi] * mi * mj * kij * cohesion_spline(r, h) * dt / r
-                        # Curvature: masses are equal within a phase, so m_i here is
-                        # symmetric and the pair's terms cancel.
-                        c = -gamma[pi] * mi * kij * dt
-                        fx += c * (normals[0, i] - normals[0, j])
-                        fy += c * (normals[1, i] - normals[1, j])
-                        fz += c * (normals[2, i] - normals[2, j])
-                    else:
-                        s = repulsion * mu * spiky(r, h) / delta0 * dt / r
-                    fx += s * rx
-                    fy += s * ry
-                    fz += s * rz
+                    for t in range(count):
+                        rx, ry, rz = xi - near[0, t], yi - near[1, t], zi - near[2, t]
+                        r2 = rx * rx + ry * ry + rz * rz
+                        # Pairs beyond h (the lists are from the predicted positions): 0.
+                        lecture = k_visc * math.exp(-r2 * inv_two_sigma2) * dt * (r2 <= h2)
+                        mj = moving[3, t]
+                        terms[0, t] += lecture * (mj * moving[0, t] - mi * ui)
+                        terms[1, t] += lecture * (mj * moving[1, t] - mi * wi)
+                        terms[2, t] += lecture * (mj * moving[2, t] - mi * si)
+                if pairs_on:
+                    gather(nbr, first, size, nx, ny, nz, phase, far, surface)
+                    for t in range(count):
+                        rx, ry, rz = xi - near[0, t], yi - near[1, t], zi - near[2, t]
+                        r2 = rx * rx + ry * ry + rz * rz
+                        r = math.sqrt(r2)
+                        inv_r = (r > 0.0) / max(r, 1e-30 * h)
+                        mj = moving[3, t]
+                        kij = 2.0 * delta0 / (di + near[3, t])
+                        if surface[3, t] == pi:
+                            s = -gamma[pi] * mi * mj * kij * cohesion_spline(r, h) * dt * inv_r
+                            # Curvature: masses are equal within a phase, so m_i here is
+                            # symmetric and the pair's terms cancel.
+                            c = -gamma[pi] * mi * kij * dt * ((r2 <= h2) & (r > 0.0))
+                            terms[0, t] += c * (nx[i] - surface[0, t])
+                            terms[1, t] += c * (ny[i] - surface[1, t])
+                            terms[2, t] += c * (nz[i] - surface[2, t])
+                        else:
+                            mu = 2.0 * (mi * mj) / (mi + mj)
+                            s = repulsion * mu * spiky(r, h) / delta0 * dt * inv_r
+                        terms[0, t] += s * rx
+                        terms[1, t] += s * ry
+                        terms[2, t] += s * rz
+                fx += ordered_sum(terms[0], count)
+                fy += ordered_sum(terms[1], count)
+                fz += ordered_sum(terms[2], count)
+                first += size
             out[0, i] = ui + fx / mi
             out[1, i] = wi + fy / mi
             out[2, i] = si + fz / mi
@@ -372,10 +468,12 @@ def cell_density(sx, sy, sz, cell_start, origin, inv_cell, dims, h, out):
     """Number density ``Σ_j W_poly6`` [1/m³] of grid-sorted points, by cell traversal.
 
     No neighbour list: each point visits the cell rows its box ``[p - h, p + h]``
-    touches. A row's terms go into a small buffer in one loop that vectorises (nothing
-    is summed in it), and are then added in a fixed order by :func:`ordered_sum` (a
-    plain running sum would not vectorise: the kernels may not reassociate floats).
-    ``out`` in sorted order.
+    touches. The rows' terms are appended to a small buffer in loops that vectorise
+    (nothing is summed in them), and the buffer is added in a fixed order by
+    :func:`ordered_sum` when full and at the end (a plain running sum would not
+    vectorise: the kernels may not reassociate floats). One sum per point rather than
+    one per row: a row holds ~30 points, and each sum's scalar tail of up to 7 additions
+    cost 1.3x in all. ``out`` in sorted order.
     """
     n = sx.shape[0]
     nx, ny, nz = dims[0], dims[1], dims[2]
@@ -394,22 +492,27 @@ def cell_density(sx, sy, sz, cell_start, origin, inv_cell, dims, h, out):
             z0 = cell_coordinate(pz - reach, origin[2], inv_cell, nz)
             z1 = cell_coordinate(pz + reach, origin[2], inv_cell, nz)
             total = np.float32(0.0)
+            filled = np.uint64(0)
             for cz in range(z0, z1 + 1):
                 for cy in range(y0, y1 + 1):
                     row = nx * (cy + ny * cz)
                     chunk = np.uint64(cell_start[row + x0])
                     end = np.uint64(cell_start[row + x1 + 1])
                     while chunk < end:
-                        size = min(end - chunk, step)
+                        size = min(end - chunk, step - filled)
                         for t in range(size):
                             s = chunk + t
                             dx = sx[s] - px
                             dy = sy[s] - py
                             dz = sz[s] - pz
                             d = max(h2 - (dx * dx + dy * dy + dz * dz), np.float32(0.0))
-                            terms[t] = d * d * d
-                        total += ordered_sum(terms, size)
+                            terms[filled + t] = d * d * d
+                        filled += size
                         chunk += size
+                        if filled == step:
+                            total += ordered_sum(terms, filled)
+                            filled = np.uint64(0)
+            total += ordered_sum(terms, filled)
             out[q] = total * np.float32(poly6(0.0, h) / h**6)
 
 

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from .._jit import device
+from .._jit import device, fma
 
 # Footprint kinds.
 POINT = 0  # bilinear tent of the offset from the particle (or its streak)
@@ -140,9 +140,9 @@ def profile_weight(kind, dx, dy, rf, inv_rf2):
     """Unit-peak weight of a round footprint at offset ``(dx, dy)`` [px] from its centre."""
     if kind == POINT:
         return max(ONE - abs(dx), ZERO) * max(ONE - abs(dy), ZERO)
-    r2 = dx * dx + dy * dy
+    r2 = fma(dx, dx, dy * dy)
     if kind == SMOOTH:
-        s = max(ONE - r2 * inv_rf2, ZERO)
+        s = max(fma(-r2, inv_rf2, ONE), ZERO)
         return s * s
     return min(max(rf + HALF - np.sqrt(r2), ZERO), ONE)
 

@@ -50,6 +50,7 @@ from .._jit import (
     block_bounds,
     block_count,
     device,
+    fma,
     ordered_sum,
     parallel_kernel,
     serial_kernel,
@@ -122,13 +123,14 @@ def _exp(x):
     t = max(x, np.float32(-87.0)) * np.float32(1.4426950408889634)
     n = np.floor(t + np.float32(0.5))
     f = (t - n) * np.float32(0.6931471805599453)
+    # Horner's scheme in fused multiply-adds (motes._jit.fma).
     p = np.float32(1.0 / 720.0)
-    p = p * f + np.float32(1.0 / 120.0)
-    p = p * f + np.float32(1.0 / 24.0)
-    p = p * f + np.float32(1.0 / 6.0)
-    p = p * f + np.float32(0.5)
-    p = p * f + np.float32(1.0)
-    p = p * f + np.float32(1.0)
+    p = fma(p, f, np.float32(1.0 / 120.0))
+    p = fma(p, f, np.float32(1.0 / 24.0))
+    p = fma(p, f, np.float32(1.0 / 6.0))
+    p = fma(p, f, np.float32(0.5))
+    p = fma(p, f, np.float32(1.0))
+    p = fma(p, f, np.float32(1.0))
     return p * _float32_from_bits((np.int32(n) + np.int32(127)) << np.int32(23))
 
 
@@ -373,7 +375,7 @@ def _gradient_kernel(
                     dx = x - near[0, p]
                     dy = y - near[1, p]
                     dz = z - near[2, p]
-                    d2 = dx * dx + dy * dy + dz * dz
+                    d2 = fma(dx, dx, fma(dy, dy, dz * dz))
                     e = near[3, p] * _exp(-a * d2)
                     e = e if d2 < near[4, p] else np.float32(0.0)
                     terms[0, p] = e * dx

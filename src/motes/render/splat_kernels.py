@@ -28,7 +28,7 @@ from functools import cache
 import numba
 import numpy as np
 
-from .._jit import device, parallel_kernel
+from .._jit import device, fma, parallel_kernel
 from ._footprint import (
     BLUE,
     DEPTH,
@@ -123,9 +123,9 @@ def _add(rgb, pixels, pixel, w, d, inv_soft, red, green, blue):
     """Depth-test (or soft-fade) one fragment of weight ``w`` at depth ``d`` and add it."""
     w *= depth_factor(pixels[pixel], d, inv_soft)
     q = pixel * np.uint64(3)
-    rgb[q] += red * w
-    rgb[q + np.uint64(1)] += green * w
-    rgb[q + np.uint64(2)] += blue * w
+    rgb[q] = fma(red, w, rgb[q])
+    rgb[q + np.uint64(1)] = fma(green, w, rgb[q + np.uint64(1)])
+    rgb[q + np.uint64(2)] = fma(blue, w, rgb[q + np.uint64(2)])
 
 
 @device

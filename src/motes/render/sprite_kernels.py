@@ -23,7 +23,7 @@ from functools import cache
 import numba
 import numpy as np
 
-from .._jit import block_bounds, block_count, device, parallel_kernel
+from .._jit import block_bounds, block_count, device, fma, parallel_kernel
 from ._footprint import (
     ALPHA,
     BAD_COLOR,
@@ -355,15 +355,15 @@ def _blend(color, depth, row, col, w, d, inv_soft, additive, red, green, blue, a
     """
     w *= depth_factor(depth[row, col], d, inv_soft)
     if additive:
-        color[row, col, 0] += red * w
-        color[row, col, 1] += green * w
-        color[row, col, 2] += blue * w
+        color[row, col, 0] = fma(red, w, color[row, col, 0])
+        color[row, col, 1] = fma(green, w, color[row, col, 1])
+        color[row, col, 2] = fma(blue, w, color[row, col, 2])
     else:
         a = min(max(alpha * w, ZERO), ONE)
         keep = ONE - a
-        color[row, col, 0] = red * a + color[row, col, 0] * keep
-        color[row, col, 1] = green * a + color[row, col, 1] * keep
-        color[row, col, 2] = blue * a + color[row, col, 2] * keep
+        color[row, col, 0] = fma(color[row, col, 0], keep, red * a)
+        color[row, col, 1] = fma(color[row, col, 1], keep, green * a)
+        color[row, col, 2] = fma(color[row, col, 2], keep, blue * a)
 
 
 @cache
