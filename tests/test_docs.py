@@ -33,6 +33,7 @@ def test_guide_examples_run(capsys):
     assert "contacts" in out
 
 
+@pytest.mark.slow
 def test_rendering_guide_examples_run(capsys):
     namespace = run_blocks(DOCS / "rendering.md")
     assert namespace["image"].shape == (180, 320, 3)
@@ -41,6 +42,7 @@ def test_rendering_guide_examples_run(capsys):
     assert "True" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_cloth_guide_examples_run(capsys):
     namespace = run_blocks(DOCS / "cloth.md")
     assert namespace["report"].converged
@@ -67,6 +69,7 @@ def test_rigid_guide_examples_run(capsys):
     assert "0.64\n[0. 2.]" in out  # restitution: e² of the drop; a ball passes its velocity on
 
 
+@pytest.mark.slow
 def test_flocks_guide_examples_run(capsys):
     namespace = run_blocks(DOCS / "flocks.md")
     assert namespace["flock"].n == 5_000

@@ -306,6 +306,7 @@ def test_vorticity_confinement_puts_energy_back_into_a_decaying_vortex():
     assert_array_equal(zero.velocities, default.velocities)
 
 
+@pytest.mark.slow
 def test_a_triangle_mesh_trough_holds_falling_water():
     # A V-shaped trough y = |x| for |x| <= 0.3, closed at its ends by a tank's walls
     # (whose floor, far below at y = -1, is where water crossing the mesh would land).

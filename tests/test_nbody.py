@@ -354,6 +354,7 @@ def test_bad_input_names_the_parameter(make, message):
         make()
 
 
+@pytest.mark.slow
 def test_the_nbody_guide_examples_run(capsys):
     import re
     from pathlib import Path

@@ -159,6 +159,7 @@ def test_syntax_errors_and_missing_files_are_scene_errors():
         load_scene("campfire")
 
 
+@pytest.mark.slow
 def test_screen_scaled_rates_use_the_scene_camera():
     scene = load_scene("lod")
     near, far = scene.systems["near"], scene.systems["far"]

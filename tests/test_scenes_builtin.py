@@ -29,10 +29,11 @@ def check_common(scene):
 # each keeps a scene test of its own in the default run or the slow tier.
 # rain, waterfall and fish_school keep tests of their own (test_rain_*, test_waterfall_*,
 # test_flock_scene); planets' placements and light are tested in test_nbody and
-# test_scene_files.
+# test_scene_files; grains' collisions in test_particle_collisions; smoke and snow load
+# in test_scene_files (their lighting: test_shadows; snow: test_snow_settles_*).
 SLOW_SCENES = {
     "floating", "rain_on_flag", "explosion", "box_tower", "galaxies", "rain", "fish_school",
-    "waterfall", "planets",
+    "waterfall", "planets", "grains", "smoke", "snow",
 }  # fmt: skip
 
 
@@ -69,6 +70,7 @@ def test_fireworks_rockets_burst_into_sparks_with_their_colours():
     assert np.unique(hue.round(2), axis=0).shape[0] >= 2  # more than one rocket colour
 
 
+@pytest.mark.slow
 def test_rain_collisions_spawn_splashes_above_the_ground():
     scene = load_scene("rain")
     advance(scene, 1.5)
