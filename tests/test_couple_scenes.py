@@ -131,6 +131,7 @@ def _tilt(scene) -> float:
     return float(np.degrees(np.arccos(np.clip(rotation[1, 1], -1.0, 1.0))))
 
 
+@pytest.mark.slow
 def test_a_stream_of_debris_knocks_a_box_of_a_rigid_body_over():
     # 60 pieces a second of 5 g at 20 m/s, 0.9 m up: a 6 N push against the 2 kg box's
     # tipping limit of 3.3 N there (tests/test_couple_rigid.py has the same case).

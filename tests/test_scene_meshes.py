@@ -189,6 +189,7 @@ capacity = 500
 """
 
 
+@pytest.mark.slow
 def test_emitter_particles_land_on_a_shared_mesh_collider(tmp_path):
     scene = load_scene(_write(tmp_path, RAIN))
     collider = scene.systems["rain"].colliders[0]
