@@ -330,3 +330,15 @@ def test_two_cloths_sharing_a_solver_step_as_if_each_had_its_own():
 
     for shared, alone in zip(pair(True), pair(False), strict=True):
         assert_array_equal(shared, alone)
+
+
+def test_positions_and_velocities_must_be_finite():
+    from motes import Cloth
+
+    cloth = Cloth.grid(4, 4)
+    bad = cloth.position.copy()
+    bad[1, 2] = np.nan
+    with pytest.raises(ValueError, match="position must be finite"):
+        cloth.position = bad
+    with pytest.raises(ValueError, match=r"velocity must have shape \(3, 16\)"):
+        cloth.velocity = np.zeros((3, 4))

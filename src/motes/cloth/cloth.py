@@ -38,12 +38,12 @@ from .model import (
     build_model,
     spring_pairs,
 )
-from .state import ClothControl, ClothState, Handle
+from .state import ClothControl, ClothState, Handle, MassSpringFacade
 
 __all__ = ["BYTES_PER_VERTEX", "Cloth", "Scheme", "SpringFamily"]
 
 
-class Cloth:
+class Cloth(MassSpringFacade):
     """A cloth: particles at the vertices of a triangle mesh joined by springs.
 
     Parameters
@@ -90,6 +90,9 @@ class Cloth:
     The parameters make :attr:`model` (:func:`~motes.cloth.model.build_model` checks
     them); the positions start at ``vertices`` at rest, time 0 (:attr:`state`).
     """
+
+    _STATE = ClothState
+    _UNITS = "vertices"
 
     def __init__(
         self,
@@ -155,15 +158,7 @@ class Cloth:
 
     @state.setter
     def state(self, value: ClothState) -> None:
-        if not isinstance(value, ClothState):
-            raise TypeError(f"state must be a ClothState, got {type(value).__name__}")
-        n = self.n
-        if value.particle_count != n:
-            raise ValueError(
-                f"state must hold this cloth's {n} vertices, got {value.particle_count}"
-            )
-        value.check_count("state", n)
-        self._state = value.copy()
+        self._replace_state(value)
 
     @property
     def control(self) -> ClothControl:
@@ -347,40 +342,6 @@ class Cloth:
         """Strain-limiting passes the latest step took (0 without a limit)."""
         limiter = self._model.strain_limiter
         return 0 if limiter is None else limiter.passes
-
-    # -- state ----------------------------------------------------------------------
-    @property
-    def position(self) -> np.ndarray:
-        """Positions [m], float64 (3, n): the state's array (assignable)."""
-        return self._state.positions
-
-    @position.setter
-    def position(self, value) -> None:
-        self._state.positions = self._rows("position", value)
-
-    @property
-    def velocity(self) -> np.ndarray:
-        """Velocities [m/s], float64 (3, n): the state's array (assignable)."""
-        return self._state.velocities
-
-    @velocity.setter
-    def velocity(self, value) -> None:
-        self._state.velocities = self._rows("velocity", value)
-
-    def _rows(self, name: str, value) -> np.ndarray:
-        rows = np.ascontiguousarray(value, dtype=np.float64)
-        if rows.shape != (3, self.n):
-            raise ValueError(f"{name} must have shape (3, {self.n}), got {rows.shape}")
-        return rows
-
-    @property
-    def time(self) -> float:
-        """Simulation time [s]."""
-        return self._state.time
-
-    @time.setter
-    def time(self, value: float) -> None:
-        self._state.time = float(value)
 
     # -- the model's parameters -----------------------------------------------------
     @property

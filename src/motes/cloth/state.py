@@ -99,3 +99,63 @@ class ClothControl:
     def free(cls, n: int) -> ClothControl:
         """Nothing held, for ``n`` particles."""
         return cls(ConstraintFilter(n))
+
+
+class MassSpringFacade:
+    """The state half of the :class:`~motes.cloth.Cloth` and :class:`~motes.hair.Hair`
+    façades: positions, velocities and time read from and written to the live
+    :class:`MassSpringState`, and the state swapped for a saved copy.
+
+    A subclass sets ``_state``, an ``n`` property and ``_STATE`` (its state class) and
+    ``_UNITS`` (what its particles are called in messages: "vertices", "particles").
+    """
+
+    _STATE: type = MassSpringState
+    _UNITS = "particles"
+
+    def _replace_state(self, value) -> None:
+        if not isinstance(value, self._STATE):
+            raise TypeError(f"state must be a {self._STATE.__name__}, got {type(value).__name__}")
+        n = self.n
+        if value.particle_count != n:
+            raise ValueError(
+                f"state must hold this {type(self).__name__.lower()}'s {n} {self._UNITS}, "
+                f"got {value.particle_count}"
+            )
+        value.check_count("state", n)
+        self._state = value.copy()
+
+    @property
+    def position(self) -> np.ndarray:
+        """Positions [m], float64 (3, n): the state's array (assignable)."""
+        return self._state.positions
+
+    @position.setter
+    def position(self, value) -> None:
+        self._state.positions = self._rows("position", value)
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """Velocities [m/s], float64 (3, n): the state's array (assignable)."""
+        return self._state.velocities
+
+    @velocity.setter
+    def velocity(self, value) -> None:
+        self._state.velocities = self._rows("velocity", value)
+
+    def _rows(self, name: str, value) -> np.ndarray:
+        rows = np.ascontiguousarray(value, dtype=np.float64)
+        if rows.shape != (3, self.n):
+            raise ValueError(f"{name} must have shape (3, {self.n}), got {rows.shape}")
+        if not np.isfinite(rows).all():
+            raise ValueError(f"{name} must be finite (no NaN or inf)")
+        return rows
+
+    @property
+    def time(self) -> float:
+        """Simulation time [s]."""
+        return self._state.time
+
+    @time.setter
+    def time(self, value: float) -> None:
+        self._state.time = float(value)

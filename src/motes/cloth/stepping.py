@@ -60,22 +60,7 @@ def advance(
     report = None
     mass = model.vertex_mass
     if model.scheme == Scheme.IMPLICIT_EULER:
-        others, drag = split_implicit(model.forces, state.velocities, mass, external)
-        solver = model.solver
-        solver.previous_change = state.warm_start
-        report = solver.step(
-            state.positions,
-            state.velocities,
-            mass,
-            h,
-            forces=[model.springs, *others],
-            external=external,
-            damping=model.air_damping * mass + drag,
-            constraints=constraints,
-            store=force_state(state.positions, state.velocities, mass),
-            time=state.time,
-        )
-        state.warm_start = solver.previous_change
+        report = implicit_solve(model, state, mass, h, external, constraints)
     else:
         add_forces(model.forces, state.positions, state.velocities, mass, state.time, external)
         _explicit(model, state, constraints, h, external)
@@ -171,3 +156,28 @@ def _collide_meshes(model, state, h: float, free: np.ndarray, start: np.ndarray)
     project_contacts(*state.positions, *previous, radius, movable, *mesh_data)
     touched = hits > 0
     state.velocities[:, touched] = (state.positions[:, touched] - previous[:, touched]) / h
+
+
+def implicit_solve(model, state, mass, h, external, constraints):
+    """One implicit Euler solve (Baraff & Witkin 1998) of a mass-spring body, cloth or
+    hair: its springs and the forces with a Jacobian implicit, air damping and the linear
+    part of field drags implicit, the rest in ``external`` (3, n) [N]. ``model`` gives
+    ``solver``, ``springs``, ``forces`` and ``air_damping``; the solver's warm start is
+    taken from and written back to ``state``. Returns the solver's report."""
+    others, drag = split_implicit(model.forces, state.velocities, mass, external)
+    solver = model.solver
+    solver.previous_change = state.warm_start
+    report = solver.step(
+        state.positions,
+        state.velocities,
+        mass,
+        h,
+        forces=[model.springs, *others],
+        external=external,
+        damping=model.air_damping * mass + drag,
+        constraints=constraints,
+        store=force_state(state.positions, state.velocities, mass),
+        time=state.time,
+    )
+    state.warm_start = solver.previous_change
+    return report

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..cloth.state import MassSpringFacade
 from ..integrate.implicit import ConstraintFilter, ImplicitEuler, SolveReport
 from ..state import Field, ParticleState
 from . import stepping
@@ -32,7 +33,7 @@ from .state import HairControl, HairState
 __all__ = ["Hair", "Head", "euler_matrix", "growth_directions", "scalp_directions"]
 
 
-class Hair:
+class Hair(MassSpringFacade):
     """Strands of hair on a :class:`Head`.
 
     Parameters
@@ -82,6 +83,9 @@ class Hair:
     The parameters make :attr:`model` (:func:`~motes.hair.model.build_model` checks
     them); the strands start straight, at rest, on the head at time 0 (:attr:`state`).
     """
+
+    _STATE = HairState
+    _UNITS = "particles"
 
     def __init__(
         self,
@@ -149,15 +153,7 @@ class Hair:
 
     @state.setter
     def state(self, value: HairState) -> None:
-        if not isinstance(value, HairState):
-            raise TypeError(f"state must be a HairState, got {type(value).__name__}")
-        n = self.n
-        if value.particle_count != n:
-            raise ValueError(
-                f"state must hold this hair's {n} particles, got {value.particle_count}"
-            )
-        value.check_count("state", n)
-        self._state = value.copy()
+        self._replace_state(value)
 
     @property
     def control(self) -> HairControl:
@@ -184,41 +180,6 @@ class Hair:
     def _step(self, h: float) -> None:
         """:meth:`step` on the current thread count (no one-thread rule)."""
         self.last_report = stepping.advance(self._model, self._state, self._control, h)
-
-    # -- state ----------------------------------------------------------------------
-    @property
-    def position(self) -> np.ndarray:
-        """Positions [m], float64 (3, n); strand ``j`` is particles ``j * per_strand``
-        to ``(j + 1) * per_strand - 1``, root first. The state's array (assignable)."""
-        return self._state.positions
-
-    @position.setter
-    def position(self, value) -> None:
-        self._state.positions = self._rows("position", value)
-
-    @property
-    def velocity(self) -> np.ndarray:
-        """Velocities [m/s], float64 (3, n): the state's array (assignable)."""
-        return self._state.velocities
-
-    @velocity.setter
-    def velocity(self, value) -> None:
-        self._state.velocities = self._rows("velocity", value)
-
-    def _rows(self, name: str, value) -> np.ndarray:
-        rows = np.ascontiguousarray(value, dtype=np.float64)
-        if rows.shape != (3, self.n):
-            raise ValueError(f"{name} must have shape (3, {self.n}), got {rows.shape}")
-        return rows
-
-    @property
-    def time(self) -> float:
-        """Simulation time [s]."""
-        return self._state.time
-
-    @time.setter
-    def time(self, value: float) -> None:
-        self._state.time = float(value)
 
     # -- the model's parameters -----------------------------------------------------
     @property

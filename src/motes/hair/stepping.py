@@ -11,8 +11,8 @@ from __future__ import annotations
 from .. import _validate as check
 from .._jit import threads_for
 from ..cloth.kernels import collide_kernel
+from ..cloth.stepping import implicit_solve
 from ..collide.colliders import Sphere, pack
-from ..forces.apply import force_state, split_implicit
 from ..geometry.layout import grown
 from ..integrate.implicit import SERIAL_BELOW, SolveReport
 from .model import HairModel
@@ -37,22 +37,7 @@ def advance(model: HairModel, state: HairState, control: HairControl, h: float) 
     control.constraints.velocity[:, roots] = (target - state.positions[:, roots]) / h
     mass = model.particle_mass
     external = mass[None, :] * model.gravity[:, None]
-    others, drag = split_implicit(model.forces, state.velocities, mass, external)
-    solver = model.solver
-    solver.previous_change = state.warm_start
-    report = solver.step(
-        state.positions,
-        state.velocities,
-        mass,
-        h,
-        forces=[model.springs, *others],
-        external=external,
-        damping=model.air_damping * mass + drag,
-        constraints=control.constraints,
-        store=force_state(state.positions, state.velocities, mass),
-        time=state.time,
-    )
-    state.warm_start = solver.previous_change
+    report = implicit_solve(model, state, mass, h, external, control.constraints)
     free = model.particle_free
     if model.strain_limiter is not None:
         model.strain_limiter.apply(state.positions, state.velocities, mass, ~free, h)

@@ -182,7 +182,7 @@ def _outside_gap(p, cell, reach, origin, edge, size):
 
 
 @device
-def _offer(sx, sy, sz, px, py, pz, first, end, own, best, slot):
+def offer_nearest(sx, sy, sz, px, py, pz, first, end, own, best, slot):
     """Insert the slots ``[first, end)`` nearer than the current k-th into the sorted
     lists ``best`` (squared distances) and ``slot``."""
     k = best.shape[0]
@@ -243,14 +243,14 @@ def knn_shells(
                         if abs(z - cz) == r or abs(y - cy) == r:  # a whole run of x
                             x0, x1 = max(cx - r, 0), min(cx + r, nx - 1)
                             first, end = cell_start[row + x0], cell_start[row + x1 + 1]
-                            _offer(sx, sy, sz, px, py, pz, first, end, own, best, slot)
+                            offer_nearest(sx, sy, sz, px, py, pz, first, end, own, best, slot)
                         else:  # inside the shell's y-z square: its two x ends only
                             if cx - r >= 0:
                                 first, end = cell_start[row + cx - r], cell_start[row + cx - r + 1]
-                                _offer(sx, sy, sz, px, py, pz, first, end, own, best, slot)
+                                offer_nearest(sx, sy, sz, px, py, pz, first, end, own, best, slot)
                             if cx + r <= nx - 1:
                                 first, end = cell_start[row + cx + r], cell_start[row + cx + r + 1]
-                                _offer(sx, sy, sz, px, py, pz, first, end, own, best, slot)
+                                offer_nearest(sx, sy, sz, px, py, pz, first, end, own, best, slot)
                 gap = min(
                     _outside_gap(px, cx, r, origin[0], edge, nx),
                     min(

@@ -22,6 +22,7 @@ import numba
 import numpy as np
 
 from .._jit import block_bounds, block_count, device, parallel_kernel
+from .kernels import offer_nearest
 
 #: Deepest stack a query needs: a tree of 2^40 points with 8 children per level.
 STACK = 8 * 48
@@ -113,21 +114,9 @@ def knn(
                 if box_distance2(px, py, pz, lo, hi, node) > best[k - 1]:
                     continue
                 if child[node] < 0:
-                    for s in range(start[node], start[node] + count[node]):
-                        if s == own:
-                            continue
-                        dx = np.float64(sx[s]) - px
-                        dy = np.float64(sy[s]) - py
-                        dz = np.float64(sz[s]) - pz
-                        d2 = dx * dx + dy * dy + dz * dz
-                        if d2 < best[k - 1]:
-                            j = k - 1
-                            while j > 0 and best[j - 1] > d2:
-                                best[j] = best[j - 1]
-                                slot[j] = slot[j - 1]
-                                j -= 1
-                            best[j] = d2
-                            slot[j] = s
+                    first_slot = start[node]
+                    offer_nearest(sx, sy, sz, px, py, pz, first_slot, first_slot + count[node],
+                                  own, best, slot)  # fmt: skip
                     continue
                 # Push the children farthest first, so that the nearest is taken next.
                 n_kids = children[node]
