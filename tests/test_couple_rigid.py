@@ -129,7 +129,7 @@ def _stream(k, mass, spread, dtype=np.float64, seed=1):
 ORIGIN = np.array([0.5, -1.0, 2.0])  # any fixed point
 
 
-@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+@pytest.mark.parametrize("dtype", [np.float64, pytest.param(np.float32, marks=pytest.mark.slow)])
 def test_a_stream_against_a_free_box_keeps_the_momentum(dtype):
     k, mass = 150, 4e-3  # 0.6 kg of shot at 10 m/s against a 1 kg box
     world, box, system, tally = _stream(k, mass, 2.5, dtype)
@@ -280,6 +280,7 @@ def test_a_particle_and_a_ball_of_equal_mass_exchange_velocities():
     np.testing.assert_allclose(world.velocity[0], (10.0, 0.0, 0.0), atol=1e-9)
 
 
+@pytest.mark.slow
 def test_kill_splashes_raise_collision_events_and_push_the_box():
     world = World(gravity=(0.0, 0.0, 0.0))
     world.add_body(BodyShape.box((0.0, 0.0, 0.0), (0.5, 0.5, 0.5), mass=2.0))

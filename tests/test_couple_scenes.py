@@ -14,6 +14,7 @@ def advance(scene, seconds):
         scene.advance()
 
 
+@pytest.mark.slow
 def test_rain_presses_the_flag_back_and_splashes_off_the_cloth():
     text = (BUILTIN_DIR / "rain_on_flag.toml").read_text()
     start = text.index("  [[system.contact]]")
@@ -157,6 +158,7 @@ def test_a_contact_with_a_rigid_world_without_boxes_or_balls_is_refused():
         load_scene(ropes)
 
 
+@pytest.mark.slow
 def test_the_debris_example_knocks_its_tower_over():
     path = Path(__file__).resolve().parents[1] / "examples" / "scenes" / "debris.toml"
     text = path.read_text()

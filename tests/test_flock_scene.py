@@ -67,7 +67,7 @@ def scene(draw="birds", prey_of="shark"):
     return load_scene(SCENE.format(draw=draw, prey_of=prey_of))
 
 
-@pytest.mark.parametrize("draw", ["birds", "sprites"])
+@pytest.mark.parametrize("draw", ["birds", pytest.param("sprites", marks=pytest.mark.slow)])
 def test_a_school_flees_its_shark_avoids_the_rock_and_draws(draw):
     s = scene(draw)
     school = s.bodies["school"].flock

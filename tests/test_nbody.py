@@ -300,7 +300,10 @@ integrator = "velocity_verlet"
 @pytest.mark.parametrize(
     "force",
     [
-        'type = "nbody_gravity"\n  G = 1.0\n  softening = 0.05\n  method = "barnes_hut"',
+        pytest.param(
+            'type = "nbody_gravity"\n  G = 1.0\n  softening = 0.05\n  method = "barnes_hut"',
+            marks=pytest.mark.slow,
+        ),
         'type = "coulomb"\n  softening = 0.01\n  theta = 0.5\n  quadrupole = true',
         'type = "lennard_jones"\n  epsilon = 1e-6\n  sigma = 0.05\n  cutoff = 0.2',
     ],

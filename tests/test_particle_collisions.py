@@ -170,6 +170,7 @@ def test_bad_arguments():
         motes.ParticleCollisions(structure="bvh")
 
 
+@pytest.mark.slow
 def test_spheres_look_draws_each_particle_as_a_lit_sphere(tmp_path):
     """``kind = "spheres"``: each particle a shaded sphere of its radius and colour."""
     from motes.render.geometry import Spheres

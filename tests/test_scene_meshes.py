@@ -143,6 +143,7 @@ rotation = [90, 0, 0]""",
     assert cloth.position[1].max() < 0.52
 
 
+@pytest.mark.slow
 def test_a_fluid_takes_a_mesh_wall(tmp_path):
     text = """
 [[body]]

@@ -104,6 +104,7 @@ def test_snow_settles_on_the_sphere_and_the_ground():
     assert (position[:, 1] >= -1e-3).all()
 
 
+@pytest.mark.slow
 def test_waterfall_spray_rises_from_the_pool():
     scene = load_scene("waterfall")
     advance(scene, 2.0)

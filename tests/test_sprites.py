@@ -84,7 +84,10 @@ MODES = {
 
 #: Each mode compiles kernels of its own: the default tier keeps one per feature (point,
 #: smooth, disc, additive, alpha, streak, soft); the others run in the slow tier.
-SLOW_MODES = {"point alpha", "disc alpha", "point streak", "disc streak alpha", "soft additive"}
+SLOW_MODES = {
+    "point alpha", "disc alpha", "point streak", "disc streak alpha", "soft additive",
+    "disc additive", "smooth streak",
+}  # fmt: skip
 
 
 @pytest.mark.parametrize(

@@ -214,6 +214,7 @@ def fallen(collider, start, steps=40, dt=1 / 60):
     return p, least
 
 
+@pytest.mark.slow
 def test_particles_slide_off_a_capsule_and_never_enter_it():
     rng = np.random.default_rng(2)
     start = np.c_[
@@ -228,6 +229,7 @@ def test_particles_slide_off_a_capsule_and_never_enter_it():
     assert np.all(np.hypot(p[away, 1], p[away, 2]) > 0.3 - 1e-5)
 
 
+@pytest.mark.slow
 def test_particles_land_on_a_zero_thickness_mesh_plate():
     plate = TriangleMeshCollider(
         (
