@@ -231,11 +231,15 @@ def footprint_sum(kind, streak, sx, sy, segx, segy, inv_seg2, rf, cs, sn, textur
     total = 0.0
     for row in range(int(r0), int(r1) + 1):
         py = np.float32(row) + HALF
+        # A sum per row: the rows' additions overlap, where one running sum over the
+        # box would wait for each of them (float sums keep their order).
+        row_total = ZERO
         for col in range(int(c0), int(c1) + 1):
             px = np.float32(col) + HALF
             if kind == TEXTURE:
-                total += texture_sample(texture, px - sx, py - sy, inv_rf, cs, sn)[3]
+                row_total += texture_sample(texture, px - sx, py - sy, inv_rf, cs, sn)[3]
             else:
                 dx, dy, _ = segment_offset(streak, px, py, sx, sy, segx, segy, inv_seg2)
-                total += profile_weight(kind, dx, dy, rf, inv_rf2)
+                row_total += profile_weight(kind, dx, dy, rf, inv_rf2)
+        total += row_total
     return total
