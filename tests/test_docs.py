@@ -150,6 +150,7 @@ def test_every_motes_command_in_the_docs_parses(page, command, in_block, capsys)
         assert scene in builtin_scenes(), f"{page}: {command!r}: no built-in scene {scene!r}"
 
 
+@pytest.mark.slow
 def test_the_api_reference_builds(tmp_path):
     """``docs/build.py`` writes a page per public module, rendered from the docstrings."""
     pytest.importorskip("pdoc", reason="the docs extra is not installed")

@@ -304,7 +304,10 @@ integrator = "velocity_verlet"
             'type = "nbody_gravity"\n  G = 1.0\n  softening = 0.05\n  method = "barnes_hut"',
             marks=pytest.mark.slow,
         ),
-        'type = "coulomb"\n  softening = 0.01\n  theta = 0.5\n  quadrupole = true',
+        pytest.param(
+            'type = "coulomb"\n  softening = 0.01\n  theta = 0.5\n  quadrupole = true',
+            marks=pytest.mark.slow,
+        ),
         'type = "lennard_jones"\n  epsilon = 1e-6\n  sigma = 0.05\n  cutoff = 0.2',
     ],
 )
@@ -400,6 +403,7 @@ def test_plummer_sphere_is_in_virial_equilibrium():
     assert_allclose(2 * kinetic / abs(potential), 1.0, atol=0.06)
 
 
+@pytest.mark.slow
 def test_scene_places_galaxies_and_clusters():
     scene = load_scene(
         """

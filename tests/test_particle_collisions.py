@@ -119,6 +119,7 @@ def _pour(friction: float, grains: int = 1600) -> np.ndarray:
     return system["position"].astype(np.float64)
 
 
+@pytest.mark.slow
 def test_friction_lets_a_heap_stand():
     """Poured frictionless grains spread into a low mound; with μ = 0.6 they stand in a
     heap whose flank keeps a slope, the angle of repose (17° here for grains that

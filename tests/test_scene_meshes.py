@@ -207,6 +207,7 @@ def test_emitter_particles_land_on_a_shared_mesh_collider(tmp_path):
     assert scene.systems["rain"]["position"][:, 1].max() < -3.0
 
 
+@pytest.mark.slow
 def test_a_mesh_collider_of_a_system_kills_what_it_touches(tmp_path):
     own = RAIN.replace('[[collider]]\ntype = "mesh"\npath = "square.obj"\nrestitution = 0.0\n', "")
     own += '  [[system.collider]]\n  type = "mesh"\n  path = "square.obj"\n  response = "kill"\n'

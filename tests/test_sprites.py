@@ -86,7 +86,7 @@ MODES = {
 #: smooth, disc, additive, alpha, streak, soft); the others run in the slow tier.
 SLOW_MODES = {
     "point alpha", "disc alpha", "point streak", "disc streak alpha", "soft additive",
-    "disc additive", "smooth streak",
+    "disc additive", "smooth streak", "point additive",
 }  # fmt: skip
 
 
