@@ -1,4 +1,4 @@
-"""Helpers shared by the benchmarks: timing, the machine, copy bandwidth, tables."""
+"""Helpers shared by the benchmarks: timing, the machine, memory bandwidth, tables."""
 
 from __future__ import annotations
 
@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
+
+from motes._jit import block_bounds, block_count, parallel_kernel
 
 
 @dataclass(frozen=True)
@@ -135,6 +137,52 @@ def copy_bandwidth(rows: int, columns: int, *, threads: int = 1, repeat: int = 5
             copy()
             best = min(best, time.perf_counter() - start)
     return 2 * src.nbytes / best
+
+
+@parallel_kernel
+def _triad(a, b, c, scalar):
+    for block in numba.prange(block_count(a.shape[0])):
+        start, stop = block_bounds(block, a.shape[0])
+        for i in range(start, stop):
+            a[i] = b[i] + scalar * c[i]
+
+
+@parallel_kernel
+def _update(a, b, scalar):
+    for block in numba.prange(block_count(a.shape[0])):
+        start, stop = block_bounds(block, a.shape[0])
+        for i in range(start, stop):
+            a[i] = a[i] + scalar * b[i]
+
+
+def stream_bandwidth(n: int, *, repeat: int = 5) -> dict[str, float]:
+    """Memory bandwidth [B/s] of two compiled STREAM-style kernels over ``n`` float32.
+
+    ``"triad"`` is STREAM's ``a = b + s * c``; ``"update"`` is ``a = a + s * b``, which
+    writes back what it read, as the particle kernels do (a store to a line not read
+    first also reads it into the cache, traffic the triad pays and the bytes do not
+    count). Both run on every Numba thread, as the kernels they bound do, over arrays
+    that should be larger than the caches (STREAM asks for four times the last-level
+    cache each). Bytes are counted as STREAM counts them: what the loop reads and writes,
+    12 bytes a value for both. The best of ``repeat`` runs, after one that compiles and
+    faults pages in.
+    """
+    rng = np.random.default_rng(0)
+    b = rng.random(n, dtype=np.float32)
+    c = rng.random(n, dtype=np.float32)
+    a = np.empty_like(b)
+    scalar = np.float32(1e-7)  # the update's values stay finite over any repeat
+    runs = {"triad": lambda: _triad(a, b, c, scalar), "update": lambda: _update(a, b, scalar)}
+    rates = {}
+    for name, run in runs.items():
+        run()
+        best = math.inf
+        for _ in range(repeat):
+            start = time.perf_counter()
+            run()
+            best = min(best, time.perf_counter() - start)
+        rates[name] = 12 * n / best
+    return rates
 
 
 def table(rows: list[tuple[str, str]], *, title: str) -> str:
