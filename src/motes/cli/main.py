@@ -39,6 +39,14 @@ examples:
   motes export run.npz frames/run.####.geo   Houdini: a .geo file per frame
 """
 
+RENDER_EXAMPLES = """\
+examples:
+  motes run rain --no-render --export rain.npz   simulate once ...
+  motes render rain.npz -o rain.mp4              ... draw it as often as wanted
+  motes render rain.npz -o still.png --frames 119:120 --resolution 1920x1080
+  motes render run.npz -o frames/ --scene my_scene.toml   a cache of a scene file
+"""
+
 
 class UserError(Exception):
     """A mistake in what the user asked for: reported in one line, exit status 2."""
@@ -63,6 +71,16 @@ def _positive(text: str) -> float:
     if not 0 < value < float("inf"):
         raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
     return value
+
+
+def _frame_range(text: str) -> tuple[int | None, int | None]:
+    """An argparse type: ``A:B``, either side optional (a Python slice of frames)."""
+    try:
+        start, stop = (int(v) if v.strip() else None for v in text.split(":"))
+    except ValueError:
+        message = f"must look like 10:20, 10: or :20, got {text!r}"
+        raise argparse.ArgumentTypeError(message) from None
+    return start, stop
 
 
 def _integer_from(low: int):
@@ -169,6 +187,47 @@ def _parser() -> argparse.ArgumentParser:
         help="frames per second of the cache (default: the one it records)",
     )
     export.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
+    render = sub.add_parser(
+        "render",
+        help="draw a particle cache (.npz) again with its scene, without simulating",
+        description="Draw the frames of a cache that motes run --export CACHE.npz wrote, "
+        "with the look of the scene it records (camera, lights, objects, looks), as "
+        "motes run drew them. Emitter systems, cloth and hair are drawn from a cache.",
+        epilog=RENDER_EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    render.add_argument("cache", metavar="CACHE", help="a .npz particle cache")
+    render.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT",
+        required=True,
+        help="OUT.mp4, OUT.gif, OUT.png (last frame) or a directory for PNG frames",
+    )
+    render.add_argument(
+        "--frames",
+        type=_frame_range,
+        metavar="A:B",
+        help="the cached frames A to B - 1 (counted from 0, as Python slices; default: all)",
+    )
+    render.add_argument(
+        "--resolution",
+        type=_resolution,
+        metavar="WxH",
+        help="image size, e.g. 1280x720 (default: the scene's)",
+    )
+    render.add_argument(
+        "--scene",
+        metavar="NAME_OR_FILE",
+        help="the scene to draw with (default: the one the cache records; a scene file's "
+        "path is not recorded)",
+    )
+    render.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the frames of an earlier run in a non-empty frame folder",
+    )
+    render.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
     sub.add_parser("scenes", help="list the built-in scenes")
     show = sub.add_parser(
         "show",
@@ -202,6 +261,8 @@ def main(argv: list[str] | None = None) -> int:
             return _show(args.scene)
         if args.command == "export":
             return _export(args)
+        if args.command == "render":
+            return _render(args)
         return _run(args)
     except (UserError, InsufficientMemoryError) as error:
         print(f"motes: error: {error}", file=sys.stderr)
@@ -395,6 +456,77 @@ def _warn_dropped(scene, warned: set) -> None:
                 f"particles): {dropped} births dropped so far; raise its capacity",
                 file=sys.stderr,
             )
+
+
+def _render(args) -> int:
+    """``motes render CACHE -o OUT``: draw a cache's frames with its scene."""
+    from ..io.cache import load_cache
+    from ..io.frames import open_writer
+    from ..scene import SceneError
+    from ..scene.replay import Replay, ReplayError, load_for
+    from .progress import Progress
+
+    output = Path(args.output)
+    if output.suffix.lower() not in ("", ".mp4", ".gif", ".png"):
+        raise UserError(f"-o must end in .mp4, .gif or .png, or be a directory; got {output}")
+    if output.parent != Path() and not output.parent.is_dir():
+        raise UserError(f"output directory does not exist: {output.parent}")
+    _check_writable(output)
+    try:
+        cache = load_cache(Path(args.cache))
+    except FileNotFoundError:
+        raise UserError(f"no such cache: {args.cache}") from None
+    except (ValueError, OSError) as error:
+        raise UserError(str(error)) from None
+    try:
+        scene = load_for(cache, args.scene)
+        replay = Replay(scene, cache)
+    except (SceneError, ReplayError) as error:
+        raise UserError(str(error)) from None
+    except OSError as error:
+        raise UserError(f"cannot read {args.scene}: {error.strerror}") from None
+    indices = range(cache.frame_count)
+    if args.frames is not None:
+        indices = indices[slice(*args.frames)]
+    if not indices:
+        raise UserError(f"--frames selects no frame of the {cache.frame_count} in the cache")
+    resolution = args.resolution or scene.camera.resolution
+    still = output.suffix.lower() == ".png"
+    if still:
+        indices = indices[-1:]  # a .png keeps only the last frame
+    if output.suffix == "":
+        _clear_frames(output, overwrite=args.overwrite)
+    scene.renderer(resolution)  # a frame that would not fit in memory fails here
+    progress = Progress(len(indices), label=Path(args.cache).name, enabled=not args.quiet)
+    progress.begin()
+    start = time.perf_counter()
+    done = 0
+    interrupted = False
+    failure = None
+    with contextlib.ExitStack() as outputs:
+        signals = outputs.enter_context(_terminate_as_interrupt())
+        writer = outputs.enter_context(open_writer(output, fps=scene.fps, metadata=_record(scene)))
+        outputs.callback(progress.close)
+        try:
+            for index in indices:
+                writer.write(replay.render(index, resolution))
+                done += 1
+                progress.update(done)
+        except KeyboardInterrupt:
+            interrupted = True
+        except SceneError as error:  # a surface spread too far for its grid
+            failure = UserError(f"{error} (after {done} frames)")
+    if failure is not None:
+        raise failure
+    if interrupted:
+        held = writer.frames_written
+        how = "terminated" if signals["terminated"] else "interrupted"
+        print(f"motes: {how} after {done} frames; {output} holds {held}", file=sys.stderr)
+        return 143 if signals["terminated"] else 130
+    if not args.quiet:
+        elapsed = time.perf_counter() - start
+        print(f"{done} frames in {elapsed:.1f} s ({done / elapsed:.1f} fps); wrote {output}")
+    return 0
 
 
 def _run(args) -> int:

@@ -57,6 +57,15 @@ class Body(ABC):
         """Particles in the body (for progress lines and ``Scene.counts``)."""
         return 0
 
+    #: Whether :meth:`show` can draw the body from a cached frame.
+    replayable = False
+
+    def show(self, entry: Entry, time: float) -> None:
+        """Put a cached frame's particles (``entry``, as :meth:`entry` recorded them at
+        ``time`` [s]) where :meth:`drawables` and :meth:`particles` read them, to draw
+        the body again without simulating it (``motes render CACHE``)."""
+        raise NotImplementedError(f"{type(self).__name__} cannot be drawn from a cache")
+
     def link(self, bodies: dict) -> None:
         """Resolve references to other bodies by name (``bodies``: every body of the
         scene, this one included), once all are built; raise :class:`SceneError` naming

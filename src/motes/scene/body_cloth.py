@@ -145,6 +145,12 @@ class ClothBody(Body):
     def entry(self, *, surface: bool = False) -> Entry:
         return Entry(self.cloth.particle_state(), faces=self.cloth.faces)
 
+    replayable = True
+
+    def show(self, entry: Entry, time: float) -> None:
+        self._last_good = np.array(entry.state.positions, dtype=np.float64)
+        self.diverged_at = None
+
 
 def _pins(table: Table, cloth: Cloth, grid: bool) -> None:
     if grid:
@@ -338,6 +344,12 @@ class HairBody(Body):
     def entry(self, *, surface: bool = False) -> Entry:
         curves = np.full(self.hair.strand_count, self.hair.per_strand, dtype=np.int64)
         return Entry(self.hair.particle_state(), curves=curves)
+
+    replayable = True
+
+    def show(self, entry: Entry, time: float) -> None:
+        self.hair.position = entry.state.positions
+        self.hair.time = time  # the head's pose
 
 
 def _hair_colliders(table: Table, context: BuildContext) -> list:

@@ -12,6 +12,7 @@ from ..render.metaballs import GridError, Metaballs
 from ..render.renderer import Renderer, background_from
 from ..render.shading import AmbientLight, DirectionalLight, Material, default_lights
 from ..render.sprites import SpriteStyle
+from ..state import as_state
 from .looks import ParticleLook, SceneObject, SpheresLook, SurfaceLook
 from .schema import SceneError, key_name
 
@@ -48,14 +49,17 @@ class SceneRenderer:
     def resolution(self) -> tuple[int, int]:
         return self.renderer.resolution
 
-    def render_scene(self, scene) -> np.ndarray:
+    def render_scene(self, scene, states=None) -> np.ndarray:
+        """The scene's frame now; ``states`` (system name -> ParticleState) draws those
+        particles in place of the live systems' (a cached frame: ``motes render``)."""
         if scene.camera_path is not None:
             self.renderer.camera = scene.camera_at(scene.time, self.resolution)
-        systems = [(scene.systems[name], style) for name, style in self.styles.items()]
+        particles = scene.systems if states is None else states
+        systems = [(particles[name], style) for name, style in self.styles.items()]
         objects = list(self.objects)
         for name, surface in self.surfaces.items():
             with _surface_of(f"system.{key_name(name)}.render", scene):
-                objects.extend(surface.drawables(scene.systems[name]))
+                objects.extend(surface.drawables(particles[name]))
         for name, body in scene.bodies.items():
             with _surface_of(f"body.{key_name(name)}", scene):
                 systems.extend(body.particles())
@@ -87,15 +91,17 @@ class _Surface:
         )
         self.material = Material(specular=look.specular, shininess=48.0)
 
-    def drawables(self, system) -> list:
-        if len(system) < 2:
+    def drawables(self, particles) -> list:
+        """The surface over ``particles`` (a system or a ParticleState)."""
+        state = as_state(particles)
+        if state.count < 2:
             return []
-        mesh = self.metaballs.mesh(system["position"])
+        mesh = self.metaballs.mesh(state.positions.T)
         if len(mesh.faces) == 0:
             return []
         rgb = self.look.color
         if rgb is None:
-            rgb = system["color"][:, :3].mean(axis=0) if system.store.has("color") else _GREY
+            rgb = state["color"].T[:, :3].mean(axis=0) if "color" in state else _GREY
         return [geometry.Mesh(mesh, color=tuple(float(c) for c in rgb[:3]), material=self.material)]
 
 
@@ -110,16 +116,17 @@ class _Spheres:
         self.look = look
         self.material = Material(specular=look.specular, shininess=64.0)
 
-    def drawables(self, system) -> list:
-        if len(system) == 0:
+    def drawables(self, particles) -> list:
+        """A sphere per particle of ``particles`` (a system or a ParticleState)."""
+        state = as_state(particles)
+        if state.count == 0:
             return []
-        radius = system["size"] if system.store.has("size") else 0.05
         colors = self.look.color
         if colors is None:
-            colors = system["color"][:, :3] if system.store.has("color") else _GREY
+            colors = state["color"].T[:, :3] if "color" in state else _GREY
         return [
             geometry.Spheres(
-                system["position"], radius, colors=colors,
+                state.positions.T, state.radius, colors=colors,
                 subdivisions=self.look.subdivisions, material=self.material,
             )
         ]  # fmt: skip

@@ -1,0 +1,113 @@
+"""``motes render CACHE``: a cache drawn again with its scene, as ``motes run`` drew it."""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_array_equal
+
+from motes.cli.main import main
+from motes.io.cache import CacheWriter, load_cache
+from motes.io.frames import read_image
+from motes.scene import load_scene
+from motes.scene.replay import Replay, ReplayError
+from motes.state import ParticleState
+
+SCENE = """
+[scene]
+name = "puff"
+duration = 0.5
+fps = 10
+seed = 4
+
+[camera]
+position = [0, 1, 4]
+target = [0, 0.5, 0]
+resolution = [96, 54]
+
+[[system]]
+name = "puff"
+capacity = 400
+  [[system.emitter]]
+  shape = { type = "sphere", radius = 0.2 }
+  rate = { type = "per_second", rate = 600 }
+  speed = { uniform = [0.5, 1.5] }
+  lifetime = 0.4
+"""
+
+
+def cli(*args):
+    return main([str(a) for a in args])
+
+
+def frames(folder):
+    return [read_image(p) for p in sorted(folder.glob("frame_*.png"))]
+
+
+def test_a_cached_scene_file_draws_again_pixel_for_pixel(tmp_path, capsys):
+    scene = tmp_path / "puff.toml"
+    scene.write_text(SCENE)
+    cache = tmp_path / "puff.npz"
+    assert cli("run", scene, "-o", tmp_path / "live", "--export", cache, "-q") == 0
+    # The cache records the scene's name, not the file: the file is asked for.
+    assert cli("render", cache, "-o", tmp_path / "again", "-q") == 2
+    assert "no built-in scene" in capsys.readouterr().err.lower()
+    assert cli("render", cache, "-o", tmp_path / "again", "--scene", scene, "-q") == 0
+    live, again = frames(tmp_path / "live"), frames(tmp_path / "again")
+    assert len(live) == len(again) == 5
+    for a, b in zip(live, again, strict=True):
+        assert_array_equal(a, b)
+    assert max(float(a.std()) for a in again) > 1.0  # not blank
+    # Frames 2 and 3 alone, as a slice of the cache.
+    out = tmp_path / "slice"
+    assert cli("render", cache, "-o", out, "--scene", scene, "--frames", "2:4", "-q") == 0
+    assert [f.tolist() for f in frames(out)] == [live[2].tolist(), live[3].tolist()]
+
+
+def test_systems_and_cloth_of_a_builtin_scene_draw_again_pixel_for_pixel(tmp_path):
+    cache = tmp_path / "flag.npz"
+    live, again = tmp_path / "live", tmp_path / "again"
+    common = ("--resolution", "96x54", "-q")
+    assert cli("run", "rain_on_flag", "--frames", 3, "-o", live, "--export", cache, *common) == 0
+    assert cli("render", cache, "-o", again, *common) == 0
+    for a, b in zip(frames(live), frames(again), strict=True):
+        assert_array_equal(a, b)
+    assert len(frames(again)) == 3
+
+
+def test_a_body_that_cannot_be_drawn_from_a_cache_is_refused_by_name(tmp_path):
+    scene = load_scene("fish_school")
+    path = tmp_path / "fish.npz"
+    empty = ParticleState(np.zeros(0, np.int64), np.zeros((3, 0)), np.zeros((3, 0)), np.zeros(0))
+    with CacheWriter(path, scene="fish_school") as writer:
+        writer.add_frame(0.0, {name: empty for name in [*scene.systems, *scene.bodies]})
+    with pytest.raises(ReplayError, match=r"cannot be drawn from a cache yet: 'school' \(Flock"):
+        Replay(scene, load_cache(path))
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (("--frames", "7:9"), "selects no frame"),
+        (("--frames", "x"), "must look like 10:20"),
+        (("--scene", "fire"), "draws system 'flame', which it does not"),
+    ],
+)
+def test_mistakes_exit_2_with_one_line_and_write_nothing(tmp_path, capsys, extra, message):
+    scene = tmp_path / "puff.toml"
+    scene.write_text(SCENE.replace("duration = 0.5", "duration = 0.2"))
+    cache = tmp_path / "puff.npz"
+    assert cli("run", scene, "--no-render", "--export", cache, "-q") == 0
+    capsys.readouterr()
+    out = tmp_path / "out.mp4"
+    args = ("--scene", scene, *extra) if "--scene" not in extra else extra
+    with pytest.raises(SystemExit) if extra[1] == "x" else _nothing():
+        assert cli("render", cache, "-o", out, *args) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()
+
+
+class _nothing:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
