@@ -22,6 +22,13 @@ millions of points written per second (points of all frames over the writer's ti
   frames (a copy per frame, one uncompressed write at the end), with each format's ratio
   to it (``*_vs_npz``).
 
+- ``dask_render_efficiency``: drawing the frames of a cache with ``motes render``'s Dask
+  path on ``N = 2`` single-threaded local workers, against the same frames drawn one
+  after another on one thread in this process (the same task, :func:`motes.scene.farm.
+  draw_frame`): serial time over ``N`` times the farm's time (target >= 0.8). Both are
+  warmed up first (each worker draws a frame: the scene built, the kernels loaded), so
+  the figure is the farm's steady throughput, not the cluster's start.
+
 Files go to a temporary folder (the page cache, on a machine with memory to spare: the
 figures are the writers', not the disk's). Formats whose package is not installed are
 skipped and named.
@@ -108,7 +115,64 @@ def run(quick: bool) -> dict:
             figures[f"{name}_vs_npz"] = figures[figure] / base
     figures["skipped"] = skipped
     print(table(rows, title=f"Export of {points:,} points x {frames} frames (write + close)"))
+    figures |= farm_efficiency(quick)
     return figures
+
+
+def farm_efficiency(quick: bool, workers: int = 2) -> dict:
+    """``dask_render_efficiency`` (see the module docstring); {} without ``distributed``."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        print("dask render: skipped (distributed is not installed)")
+        return {}
+    import numba
+
+    from motes.cli.main import main as motes
+    from motes.scene.farm import draw_frame
+
+    frames, resolution = (6, (320, 180)) if quick else (24, (960, 540))
+    with tempfile.TemporaryDirectory(prefix="motes-farm-") as folder:
+        root = Path(folder)
+        cache = root / "rain.npz"
+        motes(["run", "rain", "--frames", str(frames + workers), "--no-render", "--export",
+               str(cache), "-q"])  # fmt: skip
+        options = {"cache": str(cache), "scene": None, "resolution": resolution,
+                   "metadata": None}  # fmt: skip
+        previous = numba.get_num_threads()
+        try:
+            draw_frame(0, folder=folder, **options)  # warm-up
+            start = time.perf_counter()
+            for index in range(workers, frames + workers):
+                draw_frame(index, folder=folder, **options)
+            serial = time.perf_counter() - start
+        finally:
+            numba.set_num_threads(previous)
+        out = root / "farm"
+        out.mkdir()
+        with (
+            LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=None) as c,
+            Client(c) as client,
+        ):
+            # One warm-up frame on each worker (the scene built, the kernels loaded).
+            names = list(client.scheduler_info()["workers"])
+            warm = [client.submit(draw_frame, k, folder=str(out), workers=[w], pure=False,
+                                  **options) for k, w in enumerate(names)]  # fmt: skip
+            client.gather(warm)
+            tasks = range(workers, frames + workers)
+            start = time.perf_counter()
+            client.gather(client.map(draw_frame, tasks, folder=str(out), pure=False, **options))
+            farm = time.perf_counter() - start
+    efficiency = serial / (workers * farm)
+    shown = f"{efficiency:.2f} (serial {serial:.2f} s, {workers} workers {farm:.2f} s)"
+    print(table([(f"{frames} frames, {resolution[0]}x{resolution[1]}", shown)],
+                title="Drawing a cache on Dask: serial time / (N x farm time)"))  # fmt: skip
+    return {
+        "dask_render_efficiency": efficiency,
+        "dask_render_serial_s": serial,
+        "dask_render_farm_s": farm,
+        "dask_render_workers": workers,
+    }
 
 
 def main(argv: list[str] | None = None) -> dict:

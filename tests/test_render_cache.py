@@ -111,3 +111,48 @@ class _nothing:
 
     def __exit__(self, *exc):
         return False
+
+
+def test_a_render_on_two_dask_workers_equals_the_serial_one_and_resumes(tmp_path, capsys):
+    pytest.importorskip("distributed")
+    from motes.scene.farm import render_on_dask
+
+    scene = tmp_path / "puff.toml"
+    scene.write_text(SCENE)
+    cache = tmp_path / "puff.npz"
+    assert cli("run", scene, "--no-render", "--export", cache, "-q") == 0
+    serial, farm = tmp_path / "serial", tmp_path / "farm"
+    assert cli("render", cache, "-o", serial, "--scene", scene, "--frames", "1:", "-q") == 0
+    args = ("--scene", scene, "--frames", "1:", "--workers", 2)
+    assert cli("render", cache, "-o", farm, *args) == 0
+    assert "4 frames in" in capsys.readouterr().out
+    names = sorted(p.name for p in farm.glob("frame_*.png"))
+    assert names == sorted(p.name for p in serial.glob("frame_*.png"))
+    assert names == [f"frame_{i:05d}.png" for i in range(1, 5)]  # numbered as cached
+    for a, b in zip(frames(serial), frames(farm), strict=True):
+        assert_array_equal(a, b)
+    # An interrupted render: two frames missing. Only those are drawn again.
+    (farm / "frame_00002.png").unlink()
+    (farm / "frame_00004.png").unlink()
+    seen = []
+    drawn = render_on_dask(
+        cache, farm, [1, 2, 3, 4], scene=str(scene), workers=2, progress=seen.append
+    )
+    assert drawn == 2 and seen[0] == 2 and seen[-1] == 4
+    for a, b in zip(frames(serial), frames(farm), strict=True):
+        assert_array_equal(a, b)
+
+
+def test_a_render_on_dask_writes_a_folder_and_names_an_unreachable_scheduler(tmp_path, capsys):
+    pytest.importorskip("distributed")
+    scene = tmp_path / "puff.toml"
+    scene.write_text(SCENE.replace("duration = 0.5", "duration = 0.2"))
+    cache = tmp_path / "puff.npz"
+    assert cli("run", scene, "--no-render", "--export", cache, "-q") == 0
+    capsys.readouterr()
+    args = ("--scene", scene, "-q")
+    assert cli("render", cache, "-o", tmp_path / "a.mp4", "--workers", 2, *args) == 2
+    assert "write a folder of PNG frames" in capsys.readouterr().err
+    address = "tcp://127.0.0.1:9"  # the discard port: nothing listens there
+    assert cli("render", cache, "-o", tmp_path / "f", "--scheduler", address, *args) == 2
+    assert "cannot reach the Dask scheduler" in capsys.readouterr().err

@@ -91,6 +91,7 @@ def test_explosion_debris_stays_on_the_ground_and_slows_down():
     assert np.median(speed) < 1.0  # friction and restitution have taken the energy
 
 
+@pytest.mark.slow
 def test_snow_settles_on_the_sphere_and_the_ground():
     scene = load_scene("snow")
     advance(scene, 5.5)  # flakes fall at about g / drag = 1.2 m/s from 4.5 m

@@ -45,6 +45,7 @@ examples:
   motes render rain.npz -o rain.mp4              ... draw it as often as wanted
   motes render rain.npz -o still.png --frames 119:120 --resolution 1920x1080
   motes render run.npz -o frames/ --scene my_scene.toml   a cache of a scene file
+  motes render rain.npz -o frames/ --workers 2   on a local Dask cluster (resumable)
 """
 
 
@@ -226,6 +227,19 @@ def _parser() -> argparse.ArgumentParser:
         "--overwrite",
         action="store_true",
         help="replace the frames of an earlier run in a non-empty frame folder",
+    )
+    farm = render.add_mutually_exclusive_group()
+    farm.add_argument(
+        "--workers",
+        type=_integer_from(1),
+        metavar="N",
+        help="draw the frames on a local Dask cluster of N single-threaded processes "
+        "(OUT a folder; frames already in it are kept: an interrupted render resumes)",
+    )
+    farm.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="draw the frames on a running Dask cluster, e.g. tcp://host:8786 (as --workers)",
     )
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
     sub.add_parser("scenes", help="list the built-in scenes")
@@ -461,7 +475,7 @@ def _warn_dropped(scene, warned: set) -> None:
 def _render(args) -> int:
     """``motes render CACHE -o OUT``: draw a cache's frames with its scene."""
     from ..io.cache import load_cache
-    from ..io.frames import open_writer
+    from ..io.frames import SequenceWriter, open_writer
     from ..scene import SceneError
     from ..scene.replay import Replay, ReplayError, load_for
     from .progress import Progress
@@ -494,10 +508,15 @@ def _render(args) -> int:
     still = output.suffix.lower() == ".png"
     if still:
         indices = indices[-1:]  # a .png keeps only the last frame
-    if output.suffix == "":
+    farm = args.workers is not None or args.scheduler is not None
+    if farm and output.suffix != "":
+        raise UserError(f"--workers and --scheduler write a folder of PNG frames; got -o {output}")
+    if output.suffix == "" and (args.overwrite or not farm):
         _clear_frames(output, overwrite=args.overwrite)
     scene.renderer(resolution)  # a frame that would not fit in memory fails here
     progress = Progress(len(indices), label=Path(args.cache).name, enabled=not args.quiet)
+    if farm:
+        return _render_farm(args, scene, indices, resolution, progress)
     progress.begin()
     start = time.perf_counter()
     done = 0
@@ -505,7 +524,13 @@ def _render(args) -> int:
     failure = None
     with contextlib.ExitStack() as outputs:
         signals = outputs.enter_context(_terminate_as_interrupt())
-        writer = outputs.enter_context(open_writer(output, fps=scene.fps, metadata=_record(scene)))
+        # Frames are numbered as in the cache, as a render on Dask numbers them.
+        opened = (
+            SequenceWriter(output, start=indices[0], metadata=_record(scene))
+            if output.suffix == ""
+            else open_writer(output, fps=scene.fps, metadata=_record(scene))
+        )
+        writer = outputs.enter_context(opened)
         outputs.callback(progress.close)
         try:
             for index in indices:
@@ -526,6 +551,45 @@ def _render(args) -> int:
     if not args.quiet:
         elapsed = time.perf_counter() - start
         print(f"{done} frames in {elapsed:.1f} s ({done / elapsed:.1f} fps); wrote {output}")
+    return 0
+
+
+def _render_farm(args, scene, indices, resolution, progress) -> int:
+    """``motes render --workers N`` / ``--scheduler ADDRESS``: the frames on Dask."""
+    from ..scene import SceneError
+    from ..scene.farm import FarmError, render_on_dask
+    from ..scene.replay import ReplayError
+
+    output = Path(args.output)
+    progress.begin()
+    start = time.perf_counter()
+    try:
+        with _terminate_as_interrupt():
+            drawn = render_on_dask(
+                Path(args.cache), output, list(indices), scene=args.scene,
+                resolution=resolution, workers=args.workers, scheduler=args.scheduler,
+                metadata=_record(scene), progress=progress.update,
+            )  # fmt: skip
+    except KeyboardInterrupt:
+        progress.close()
+        held = len(list(output.glob("frame_*.png")))
+        print(
+            f"motes: interrupted; {output} holds {held} frames (run again to draw the rest)",
+            file=sys.stderr,
+        )
+        return 130
+    except (FarmError, SceneError, ReplayError) as error:
+        progress.close()
+        raise UserError(str(error)) from None
+    progress.close()
+    if not args.quiet:
+        elapsed = time.perf_counter() - start
+        kept = len(indices) - drawn
+        print(
+            f"{drawn} frames in {elapsed:.1f} s on Dask"
+            + (f" ({kept} already there)" if kept else "")
+            + f"; wrote {output}"
+        )
     return 0
 
 
