@@ -105,6 +105,7 @@ def test_coulomb_friction_never_reverses_the_sliding():
     np.testing.assert_allclose(v[1], (3.0 - 0.5 * 0.1, 0.0, 0.0), atol=1e-6)
 
 
+@pytest.mark.slow
 def test_kill_splashes_raise_collision_events_and_push_the_cloth():
     cloth = _sheet()
     system = _shots([(0.0, 0.05, 0.0), (2.0, 0.05, 0.0)], [(0.0, -6.0, 0.0)] * 2, mass=1e-5)

@@ -210,6 +210,7 @@ def test_coulomb_friction_never_reverses_the_sliding():
     assert np.all(world.motion([box.particles]).velocity == 0)
 
 
+@pytest.mark.slow
 def test_a_fast_particle_never_passes_a_thin_spinning_box():
     world = World(gravity=(0.0, 0.0, 0.0))
     plate = world.add_body(BodyShape.box((0.0, 0.0, 0.0), (0.01, 1.0, 1.0), mass=2.0))

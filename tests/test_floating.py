@@ -20,6 +20,7 @@ def settle(pair, seconds: float, dt: float = 1 / 60) -> None:
         pair.step(dt)
 
 
+@pytest.mark.slow
 def test_a_light_box_floats_held_up_by_its_weight_and_a_dense_one_sinks():
     # Held upright: a cube at half water's density is unstable upright (see below).
     light = tank_with_box(0.5, spacing=0.04, width=0.48, turn=False)

@@ -209,6 +209,7 @@ def test_a_body_that_diverges_stops_the_scene_naming_it():
     assert error.value.path == "body.pool"
 
 
+@pytest.mark.slow
 def test_a_surface_too_far_out_for_its_grid_is_a_scene_error_when_drawn():
     # The floor, lifted 3.5e15 m: the liquid follows it in one step.
     scene = load_scene(seed("honey", "point = [0, 0, 0]", "point = [0, 3.5e15, 0]"))

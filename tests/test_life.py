@@ -117,6 +117,7 @@ def test_stick_response_stops_particles():
     assert_array_equal(system["velocity"], [[0, 0, 0]])
 
 
+@pytest.mark.slow
 def test_particles_stay_inside_a_tank():
     system = mo.ParticleSystem(2000, seed=2)
     system.add(

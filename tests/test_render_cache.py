@@ -62,11 +62,11 @@ def test_a_cached_scene_file_draws_again_pixel_for_pixel(tmp_path, capsys):
     assert [f.tolist() for f in frames(out)] == [live[2].tolist(), live[3].tolist()]
 
 
-def test_systems_and_cloth_of_a_builtin_scene_draw_again_pixel_for_pixel(tmp_path):
-    cache = tmp_path / "flag.npz"
+def test_the_cloth_of_a_builtin_scene_draws_again_pixel_for_pixel(tmp_path):
+    cache = tmp_path / "cloth.npz"
     live, again = tmp_path / "live", tmp_path / "again"
     common = ("--resolution", "96x54", "-q")
-    assert cli("run", "rain_on_flag", "--frames", 3, "-o", live, "--export", cache, *common) == 0
+    assert cli("run", "cloth_drop", "--frames", 3, "-o", live, "--export", cache, *common) == 0
     assert cli("render", cache, "-o", again, *common) == 0
     for a, b in zip(frames(live), frames(again), strict=True):
         assert_array_equal(a, b)
@@ -143,16 +143,28 @@ def test_a_render_on_two_dask_workers_equals_the_serial_one_and_resumes(tmp_path
         assert_array_equal(a, b)
 
 
-def test_a_render_on_dask_writes_a_folder_and_names_an_unreachable_scheduler(tmp_path, capsys):
-    pytest.importorskip("distributed")
+def puff_cache(tmp_path):
     scene = tmp_path / "puff.toml"
     scene.write_text(SCENE.replace("duration = 0.5", "duration = 0.2"))
     cache = tmp_path / "puff.npz"
     assert cli("run", scene, "--no-render", "--export", cache, "-q") == 0
+    return scene, cache
+
+
+def test_a_render_on_dask_writes_a_folder(tmp_path, capsys):
+    scene, cache = puff_cache(tmp_path)
     capsys.readouterr()
-    args = ("--scene", scene, "-q")
-    assert cli("render", cache, "-o", tmp_path / "a.mp4", "--workers", 2, *args) == 2
+    args = ("--scene", scene, "--workers", 2, "-q")
+    assert cli("render", cache, "-o", tmp_path / "a.mp4", *args) == 2
     assert "write a folder of PNG frames" in capsys.readouterr().err
+
+
+@pytest.mark.slow  # the client waits out its 10 s connection timeout
+def test_an_unreachable_dask_scheduler_is_one_error_line(tmp_path, capsys):
+    pytest.importorskip("distributed")
+    scene, cache = puff_cache(tmp_path)
+    capsys.readouterr()
     address = "tcp://127.0.0.1:9"  # the discard port: nothing listens there
-    assert cli("render", cache, "-o", tmp_path / "f", "--scheduler", address, *args) == 2
+    args = ("--scene", scene, "--scheduler", address, "-q")
+    assert cli("render", cache, "-o", tmp_path / "f", *args) == 2
     assert "cannot reach the Dask scheduler" in capsys.readouterr().err

@@ -133,6 +133,7 @@ def test_a_swept_bounce_rebounds_to_e_squared_of_the_drop(integrator, restitutio
     assert apex == pytest.approx(restitution**2, rel=0.01)
 
 
+@pytest.mark.slow
 def test_after_the_move_the_same_bounce_misses_by_percents():
     apex = apex_after_first_bounce(dropped("semi_implicit_euler", 0.8, "posteriori"))
     assert abs(apex / 0.64 - 1) > 0.03  # what swept detection mends
