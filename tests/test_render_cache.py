@@ -168,3 +168,25 @@ def test_an_unreachable_dask_scheduler_is_one_error_line(tmp_path, capsys):
     args = ("--scene", scene, "--scheduler", address, "-q")
     assert cli("render", cache, "-o", tmp_path / "f", *args) == 2
     assert "cannot reach the Dask scheduler" in capsys.readouterr().err
+
+
+@pytest.mark.slow  # compiles the liquid's kernels
+def test_a_shaken_liquid_draws_again_pixel_for_pixel(tmp_path):
+    cache = tmp_path / "liquids.npz"
+    live, again = tmp_path / "live", tmp_path / "again"
+    common = ("--resolution", "96x54", "-q")
+    assert cli("run", "two_liquids", "--frames", 12, "-o", live, "--export", cache, *common) == 0
+    assert cli("render", cache, "-o", again, "--frames", "8:", *common) == 0
+    assert len(frames(again)) == 4
+    for a, b in zip(frames(live)[8:], frames(again), strict=True):
+        assert_array_equal(a, b)
+
+
+def test_boxes_floating_in_a_liquid_are_refused_by_name(tmp_path):
+    scene = load_scene("floating")
+    path = tmp_path / "floating.npz"
+    empty = ParticleState(np.zeros(0, np.int64), np.zeros((3, 0)), np.zeros((3, 0)), np.zeros(0))
+    with CacheWriter(path, scene="floating") as writer:
+        writer.add_frame(0.0, {name: empty for name in [*scene.systems, *scene.bodies]})
+    with pytest.raises(ReplayError, match=r"'tank' \(FluidBody\)"):
+        Replay(scene, load_cache(path))

@@ -123,6 +123,17 @@ class FluidBody(Body):
             self.metaballs = Metaballs.from_radius(
                 look["surface_radius"], sharpness=look["sharpness"], cell_size=look["cell_size"]
             )
+        self._shown = None  # a cached frame's particles, drawn instead of the live ones
+
+    @property
+    def replayable(self) -> bool:
+        # Floating boxes are rigid bodies: their transforms are not in the liquid's entry.
+        return self.floating is None
+
+    def show(self, entry: Entry, time: float) -> None:
+        self._shown = entry.state
+        for shake in self.shakes:  # the tank where it was at that time
+            shake.move(time)
 
     def step(self, dt: float) -> None:
         for shake in self.shakes:
@@ -140,16 +151,20 @@ class FluidBody(Body):
     def particle_state(self):
         return self.fluid.particle_state()
 
+    def _drawn(self):
+        """The particles drawn: a cached frame's (:meth:`show`) or the live ones."""
+        return self.fluid.particle_state() if self._shown is None else self._shown
+
     def _spray(self) -> np.ndarray:
         """Particles in thin places (see the module docstring)."""
-        s = self.fluid.state
+        s = self._drawn()
         if not self.look["spray"]:
-            return np.zeros(len(self.fluid), bool)
+            return np.zeros(s.count, bool)
         rest = np.array([p.rest_density for p in self.fluid.model.phases], np.float32)
-        return s.density < self.look["spray_below"] * rest[s.phase]
+        return s["density"] < self.look["spray_below"] * rest[s["phase"]]
 
     def particles(self) -> list:
-        state = self.fluid.particle_state()
+        state = self._drawn()
         # Sprites: every particle, or with a surface only the spray.
         if self.metaballs is not None:
             state = state.take(self._spray())
@@ -166,13 +181,13 @@ class FluidBody(Body):
 
     def _surfaces(self) -> list:
         """``(phase, mesh)`` of each phase's metaball surface (spray left out)."""
-        if self.metaballs is None or len(self.fluid) == 0:
+        s = self._drawn()
+        if self.metaballs is None or s.count == 0:
             return []
-        s = self.fluid.state
         body = ~self._spray()
         out = []
         for phase in range(len(self.colors)):
-            chosen = body & (s.phase == phase)
+            chosen = body & (s["phase"] == phase)
             if chosen.sum() < 2:
                 continue
             mesh = self.metaballs.mesh(s.positions[:, chosen].T)

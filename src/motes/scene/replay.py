@@ -7,9 +7,9 @@ cached frame is drawn by the scene's own renderer: systems from the cached state
 after :meth:`~motes.scene.bodies.Body.show` has put the cached particles where they draw
 from. A frame is therefore the frame ``motes run`` drew, pixel for pixel.
 
-Bodies that draw from more than their particles (a liquid's densities and floating boxes,
-a rigid world's bodies, a flock's trails) are not yet drawn from a cache: a scene with
-one is refused before any frame is drawn (:class:`ReplayError`).
+Bodies that draw from more than their particles (the boxes floating in a liquid, a rigid
+world's bodies, a flock's trails) are not yet drawn from a cache: a scene with one is
+refused before any frame is drawn (:class:`ReplayError`).
 """
 
 from __future__ import annotations
@@ -58,7 +58,8 @@ class Replay:
         if unsupported:
             raise ReplayError(
                 f"scene {scene.name!r} has bodies that cannot be drawn from a cache yet: "
-                f"{', '.join(unsupported)}; emitter systems, cloth and hair can"
+                f"{', '.join(unsupported)}; emitter systems, cloth, hair and liquids without "
+                "floating boxes can"
             )
         self._drawn = drawn
 
