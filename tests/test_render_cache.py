@@ -73,14 +73,54 @@ def test_the_cloth_of_a_builtin_scene_draws_again_pixel_for_pixel(tmp_path):
     assert len(frames(again)) == 3
 
 
-def test_a_body_that_cannot_be_drawn_from_a_cache_is_refused_by_name(tmp_path):
-    scene = load_scene("fish_school")
-    path = tmp_path / "fish.npz"
+FLOCK = """
+[scene]
+fps = 30
+seed = 2
+
+[camera]
+position = [0, 3, 30]
+target = [0, 3, 0]
+resolution = [96, 54]
+
+[[body]]
+name = "school"
+type = "flock"
+count = 300
+center = [0, 3, 0]
+extent = [4, 2, 3]
+speed = 2.0
+draw = "{draw}"
+trail = {trail}
+"""
+
+
+def cache_of(scene, path):
+    """A one-frame cache holding an empty entry for each of the scene's systems and bodies."""
     empty = ParticleState(np.zeros(0, np.int64), np.zeros((3, 0)), np.zeros((3, 0)), np.zeros(0))
-    with CacheWriter(path, scene="fish_school") as writer:
+    with CacheWriter(path, scene=scene.name) as writer:
         writer.add_frame(0.0, {name: empty for name in [*scene.systems, *scene.bodies]})
+    return load_cache(path)
+
+
+def test_a_body_that_cannot_be_drawn_from_a_cache_is_refused_by_name(tmp_path):
+    scene = load_scene(FLOCK.format(draw="birds", trail=8))  # a trail: the last 8 steps
     with pytest.raises(ReplayError, match=r"cannot be drawn from a cache yet: 'school' \(Flock"):
-        Replay(scene, load_cache(path))
+        Replay(scene, cache_of(scene, tmp_path / "trail.npz"))
+
+
+@pytest.mark.slow  # compiles the flock's step
+@pytest.mark.parametrize("draw", ["birds", "sprites"])
+def test_a_flock_draws_again_pixel_for_pixel(tmp_path, draw):
+    scene = tmp_path / "flock.toml"
+    scene.write_text(FLOCK.format(draw=draw, trail=0))
+    cache, live, again = tmp_path / "flock.npz", tmp_path / "live", tmp_path / "again"
+    args = ("--frames", 4, "-q")
+    assert cli("run", scene, "-o", live, "--export", cache, *args) == 0
+    assert cli("render", cache, "-o", again, "--scene", scene, "-q") == 0
+    for a, b in zip(frames(live), frames(again), strict=True):
+        assert_array_equal(a, b)
+    assert len(frames(again)) == 4
 
 
 @pytest.mark.parametrize(
@@ -184,9 +224,5 @@ def test_a_shaken_liquid_draws_again_pixel_for_pixel(tmp_path):
 
 def test_boxes_floating_in_a_liquid_are_refused_by_name(tmp_path):
     scene = load_scene("floating")
-    path = tmp_path / "floating.npz"
-    empty = ParticleState(np.zeros(0, np.int64), np.zeros((3, 0)), np.zeros((3, 0)), np.zeros(0))
-    with CacheWriter(path, scene="floating") as writer:
-        writer.add_frame(0.0, {name: empty for name in [*scene.systems, *scene.bodies]})
     with pytest.raises(ReplayError, match=r"'tank' \(FluidBody\)"):
-        Replay(scene, load_cache(path))
+        Replay(scene, cache_of(scene, tmp_path / "floating.npz"))

@@ -193,7 +193,8 @@ def _parser() -> argparse.ArgumentParser:
         help="draw a particle cache (.npz) again with its scene, without simulating",
         description="Draw the frames of a cache that motes run --export CACHE.npz wrote, "
         "with the look of the scene it records (camera, lights, objects, looks), as "
-        "motes run drew them. Emitter systems, cloth, hair and liquids are drawn from a cache.",
+        "motes run drew them. Emitter systems, cloth, hair, liquids and flocks can be drawn "
+        "from a cache.",
         epilog=RENDER_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -20,6 +20,7 @@ import numpy as np
 
 from .. import flock as fl
 from ..flock.meshes import BIRD, FISH, faces, vertices
+from ..io.entry import Entry
 from ..render import geometry
 from ..render.shading import Material
 from ..render.sprites import SpriteStyle
@@ -77,6 +78,19 @@ class FlockBody(Body):
         self.trail_color = self.color if trail_color is None else np.asarray(trail_color[:3])
         self._history = np.zeros((length, flock.n, 3))
         self._recorded = 0
+        self._shown = None  # a cached frame's boids, drawn instead of the live ones
+
+    @property
+    def replayable(self) -> bool:
+        # A trail is the boids' path over their last steps, which a cache does not hold.
+        return len(self._history) < 2
+
+    def show(self, entry: Entry, time: float) -> None:
+        self._shown = entry.state
+
+    def _drawn(self):
+        """The boids drawn: a cached frame's (:meth:`show`) or the live ones."""
+        return self.flock.particle_state() if self._shown is None else self._shown
 
     def link(self, bodies: dict) -> None:
         for path, cls, name, options in self.pending:
@@ -116,26 +130,27 @@ class FlockBody(Body):
 
     def _colors(self, per: int) -> np.ndarray:
         """(n · per, 3) linear RGB: the flock's colour, hazed with distance."""
-        n = self.flock.n
+        boids = self._drawn()
+        n = boids.count
         if self.haze is None:
             return np.broadcast_to(self.color, (n * per, 3))
         haze, distance = self.haze
-        d = np.linalg.norm(self.flock.position - self.camera_position[:, None], axis=0)
+        d = np.linalg.norm(boids.positions - self.camera_position[:, None], axis=0)
         t = (1.0 - np.exp(-d / distance)).astype(np.float32)[:, None]
         rgb = (1 - t) * self.color + t * haze
         return np.repeat(rgb, per, axis=0)
 
     def drawables(self) -> list:
-        if self.draw == "sprites" or self.flock.n == 0:
+        boids = self._drawn()
+        if self.draw == "sprites" or boids.count == 0:
             return self._trails()
         from ..geometry.mesh import TriangleMesh
 
-        f = self.flock
         shape = BIRD if self.draw == "birds" else FISH
-        points, normals = vertices(f.position, f.heading, f.bank, f.flap, self.size, self.flap,
-                                   shape)  # fmt: skip
-        if self._faces.shape[0] != f.n * len(shape.faces):
-            self._faces = faces(f.n, shape)
+        points, normals = vertices(boids.positions, boids["heading"], boids["bank"],
+                                   boids["flap"], self.size, self.flap, shape)  # fmt: skip
+        if self._faces.shape[0] != boids.count * len(shape.faces):
+            self._faces = faces(boids.count, shape)
         mesh = TriangleMesh(points, self._faces, normals)
         colors = self._colors(len(shape.rest))
         mesh = geometry.Mesh(mesh, vertex_colors=colors, smooth=False, material=self.material)
@@ -144,7 +159,7 @@ class FlockBody(Body):
     def particles(self) -> list:
         if self.draw != "sprites":
             return []
-        state = self.flock.particle_state()
+        state = self._drawn()
         rgba = np.ones((4, state.count), np.float32)
         rgba[:3] = self._colors(1).T
         # Each sprite turned to its boid's heading as the scene's camera sees it: the

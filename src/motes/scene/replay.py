@@ -58,8 +58,8 @@ class Replay:
         if unsupported:
             raise ReplayError(
                 f"scene {scene.name!r} has bodies that cannot be drawn from a cache yet: "
-                f"{', '.join(unsupported)}; emitter systems, cloth, hair and liquids without "
-                "floating boxes can"
+                f"{', '.join(unsupported)}; emitter systems, cloth, hair, liquids without "
+                "floating boxes and flocks without trails can"
             )
         self._drawn = drawn
 
