@@ -99,6 +99,7 @@ def test_bounce_restitution_and_scale_friction():
     assert system["position"][0, 1] == pytest.approx(0.0)
 
 
+@pytest.mark.slow
 def test_depth_friction_stops_slow_sliding_and_slows_fast_sliding():
     system = filled(2)
     system["position"] = [[0, 0.0, 0], [0, 0.0, 0]]

@@ -182,6 +182,7 @@ def test_a_100_m_s_spark_never_passes_a_1_cm_wall(wall):
     assert np.mean(shot(WALLS[wall]("posteriori")) > 0.0) > 0.9
 
 
+@pytest.mark.slow
 def test_a_swept_hit_can_kill_and_is_reported():
     system = mo.ParticleSystem(capacity=8)
     system.add(Box((0.0, 0.0, 0.0), (0.01, 4.0, 4.0), response="kill", detection="priori"))
