@@ -1,5 +1,7 @@
 """``motes render CACHE``: a cache drawn again with its scene, as ``motes run`` drew it."""
 
+import contextlib
+
 import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
@@ -139,18 +141,10 @@ def test_mistakes_exit_2_with_one_line_and_write_nothing(tmp_path, capsys, extra
     capsys.readouterr()
     out = tmp_path / "out.mp4"
     args = ("--scene", scene, *extra) if "--scene" not in extra else extra
-    with pytest.raises(SystemExit) if extra[1] == "x" else _nothing():
+    with pytest.raises(SystemExit) if extra[1] == "x" else contextlib.nullcontext():
         assert cli("render", cache, "-o", out, *args) == 2
     assert message in capsys.readouterr().err
     assert not out.exists()
-
-
-class _nothing:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
 
 
 def test_a_render_on_two_dask_workers_equals_the_serial_one_and_resumes(tmp_path, capsys):
@@ -226,3 +220,17 @@ def test_boxes_floating_in_a_liquid_are_refused_by_name(tmp_path):
     scene = load_scene("floating")
     with pytest.raises(ReplayError, match=r"'tank' \(FluidBody\)"):
         Replay(scene, cache_of(scene, tmp_path / "floating.npz"))
+
+
+def test_a_cache_of_another_cloth_under_the_same_name_is_one_error_line(tmp_path, capsys):
+    cache = tmp_path / "cloth.npz"
+    common = ("--frames", 1, "--resolution", "96x54", "-q")
+    assert cli("run", "cloth_drop", "--no-render", "--export", cache, *common) == 0
+    assert cli("show", "cloth_drop") == 0
+    finer = tmp_path / "finer.toml"  # the same scene, a cloth of 20 x 20 particles
+    finer.write_text(capsys.readouterr().out.replace("grid = [48, 48]", "grid = [20, 20]"))
+    out = tmp_path / "again.png"
+    assert cli("render", cache, "-o", out, "--scene", finer, "-q") == 2
+    error = capsys.readouterr().err
+    assert "cannot be drawn as body 'cloth': holds 2304 particles; the cloth has 400" in error
+    assert error.count("\n") == 1 and not out.exists()

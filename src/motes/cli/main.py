@@ -540,7 +540,7 @@ def _render(args) -> int:
                 progress.update(done)
         except KeyboardInterrupt:
             interrupted = True
-        except SceneError as error:  # a surface spread too far for its grid
+        except (SceneError, ReplayError) as error:  # a surface too wide, a cache mismatch
             failure = UserError(f"{error} (after {done} frames)")
     if failure is not None:
         raise failure

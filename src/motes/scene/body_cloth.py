@@ -148,6 +148,8 @@ class ClothBody(Body):
     replayable = True
 
     def show(self, entry: Entry, time: float) -> None:
+        if entry.state.count != self.cloth.n:
+            raise ValueError(f"holds {entry.state.count} particles; the cloth has {self.cloth.n}")
         self._last_good = np.array(entry.state.positions, dtype=np.float64)
         self.diverged_at = None
 

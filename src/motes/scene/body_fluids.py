@@ -131,6 +131,11 @@ class FluidBody(Body):
         return self.floating is None
 
     def show(self, entry: Entry, time: float) -> None:
+        if "phase" not in entry.state:
+            raise ValueError("holds no phase field: not a liquid")
+        phases = entry.state["phase"]
+        if phases.size and int(phases.max()) >= len(self.colors):
+            raise ValueError(f"has phases past this liquid's {len(self.colors)}")
         self._shown = entry.state
         for shake in self.shakes:  # the tank where it was at that time
             shake.move(time)

@@ -74,7 +74,12 @@ class Replay:
         time = float(cache.times[index])
         states = {name: cache.state(index, name) for name in self._drawn}
         for name, body in scene.bodies.items():
-            body.show(cache.entry(index, name), time)
+            try:
+                body.show(cache.entry(index, name), time)
+            except ValueError as error:  # a cache of another scene under the same names
+                raise ReplayError(
+                    f"frame {index} of the cache cannot be drawn as body {name!r}: {error}"
+                ) from None
         return scene.renderer(resolution).render_scene(scene, states)
 
     def frames(self, indices=None, resolution=None) -> Iterator[np.ndarray]:
