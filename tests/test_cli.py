@@ -37,7 +37,7 @@ def test_scenes_lists_every_builtin_with_a_description(capsys):
 
 
 def test_run_writes_a_gif_and_a_cache_that_read_back(tmp_path, capsys):
-    gif, cache = tmp_path / "fire.gif", tmp_path / "fire.npz"
+    gif, cache = tmp_path / "fire.gif", tmp_path / "fire.h5"
     assert run_cli("run", "fire", "-o", gif, "--frames", 4, "--export", cache, *SMALL) == 0
     assert capsys.readouterr().err == ""
     with Image.open(gif) as image:
@@ -48,6 +48,13 @@ def test_run_writes_a_gif_and_a_cache_that_read_back(tmp_path, capsys):
     np.testing.assert_allclose(data.times, np.arange(1, 5) / 30)
     first = data.frame(0, "flame")
     assert first["positions"].shape[1] == 3 and len(first["ids"]) > 0
+    data.close()
+    lossy = tmp_path / "lossy.h5"
+    args = ("--frames", 4, "--export", lossy, "--significant-digits", 3, "--no-render")
+    assert run_cli("run", "fire", *args, "-q") == 0
+    with load_cache(lossy) as again:
+        assert again.significant_digits == 3
+        assert again.frame(0, "flame")["positions"].shape == first["positions"].shape
 
 
 @pytest.mark.parametrize(
@@ -112,6 +119,10 @@ def test_progress_and_summary_unless_quiet(tmp_path, capsys):
         (["run", "fire", "-o", "out.avi"], "-o must end in .mp4, .gif or .png"),
         (["run", "fire", "-o", "no/such/dir/out.mp4"], "output directory does not exist"),
         (["run", "fire", "--export", "no/such/dir/c.npz"], "export directory does not exist"),
+        (
+            ["run", "fire", "--export", "c.npz", "--significant-digits", "3"],
+            "--significant-digits needs --export CACHE.h5",
+        ),
     ],
 )
 def test_user_mistakes_exit_2_with_one_line(args, message, capsys, tmp_path, monkeypatch):

@@ -481,7 +481,7 @@ def test_the_frame_pattern_rule():
 @pytest.mark.parametrize(
     ("name", "message"),
     [
-        ("run.obj", "the extension must be one of .npz, .usd"),
+        ("run.obj", "the extension must be one of .h5, .hdf5, .npz, .usd"),
         ("run", "cannot export to run"),
         ("drops.ply", "must hold ####"),
         ("drops.geo", "must hold ####"),

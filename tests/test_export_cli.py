@@ -131,7 +131,10 @@ def no_simulation(monkeypatch, tmp_path):
 @pytest.mark.parametrize(
     ("export", "message"),
     [
-        ("out.obj", "cannot export to out.obj: the extension must be one of .npz, .usd"),
+        (
+            "out.obj",
+            "cannot export to out.obj: the extension must be one of .h5, .hdf5, .npz, .usd",
+        ),
         ("drops.ply", ".ply writes a file per frame: the name must hold #### once"),
         ("drops.geo", ".geo writes a file per frame: the name must hold #### once"),
         ("run.####.usdc", "#### is for the per-frame formats (.ply, .geo)"),

@@ -15,6 +15,8 @@ from particle_kinds import DT as STEP
 from particle_kinds import KINDS, make_system
 
 DT = 1 / 30
+#: The two containers: HDF5 (format version 3) and NumPy's .npz (version 2).
+SUFFIXES = (".h5", ".npz")
 
 
 def make_systems():
@@ -57,8 +59,9 @@ def record(path, frames: int, **kwargs):
 
 
 @pytest.mark.parametrize("compress", [False, True])
-def test_round_trip(tmp_path, compress):
-    path = tmp_path / "run.npz"
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_round_trip(tmp_path, suffix, compress):
+    path = tmp_path / f"run{suffix}"
     expected = record(path, 6, compress=compress)
     cache = load_cache(path)
     assert cache.frame_count == len(cache) == 6
@@ -90,7 +93,7 @@ def test_file_layout_is_the_documented_one(tmp_path):
         assert archive.testzip() is None
     with np.load(path, allow_pickle=False) as data:
         assert str(data["format"]) == FORMAT == "motes-cache"
-        assert int(data["version"]) == VERSION == 2
+        assert int(data["version"]) == 2 and VERSION == 3
         assert str(data["motes_version"]) == mo.__version__
         assert str(data["scene"]) == "" and int(data["seed"]) == -1
         assert str(data["overrides"]) == "{}"
@@ -126,11 +129,12 @@ def test_file_layout_is_the_documented_one(tmp_path):
         np.testing.assert_array_equal(data["fountain/positions"][rows], expected[1][1]["positions"])
 
 
-def test_a_bare_float64_store_is_recorded_in_its_own_dtype(tmp_path):
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_a_bare_float64_store_is_recorded_in_its_own_dtype(tmp_path, suffix):
     store = mo.ParticleStore(10, ("size",), dtype=np.float64)
     store.spawn(4)
     store["position"][:] = np.arange(12).reshape(4, 3) / 3
-    path = tmp_path / "store.npz"
+    path = tmp_path / f"store{suffix}"
     with CacheWriter(path) as cache:
         cache.add_frame(0.0, {"store": store})
     frame = load_cache(path).frame(0)
@@ -139,16 +143,18 @@ def test_a_bare_float64_store_is_recorded_in_its_own_dtype(tmp_path):
     assert set(frame) == {*CORE, "age", "lifetime"}
 
 
-def test_loaded_arrays_are_read_only(tmp_path):
-    path = tmp_path / "run.npz"
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_loaded_arrays_are_read_only(tmp_path, suffix):
+    path = tmp_path / f"run{suffix}"
     record(path, 2)
     position = load_cache(path).frame(1, "fountain")["positions"]
     with pytest.raises(ValueError, match="read-only"):
         position[0] = 0.0
 
 
-def test_exception_still_writes_the_frames_so_far(tmp_path):
-    path = tmp_path / "run.npz"
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_exception_still_writes_the_frames_so_far(tmp_path, suffix):
+    path = tmp_path / f"run{suffix}"
     fountain, puff = make_systems()
     with pytest.raises(RuntimeError, match="simulation failed"), CacheWriter(path) as cache:
         for k in range(5):
@@ -159,24 +165,26 @@ def test_exception_still_writes_the_frames_so_far(tmp_path):
                 raise RuntimeError("simulation failed")
     loaded = load_cache(path)
     assert loaded.frame_count == 3
-    assert [p.name for p in tmp_path.iterdir()] == ["run.npz"]  # no temporary file left
+    assert [p.name for p in tmp_path.iterdir()] == [f"run{suffix}"]  # no temporary file left
 
 
-def test_no_frames_keeps_an_earlier_file(tmp_path):
-    path = tmp_path / "run.npz"
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_no_frames_keeps_an_earlier_file(tmp_path, suffix):
+    path = tmp_path / f"run{suffix}"
     record(path, 2)
     before = path.read_bytes()
     with pytest.raises(KeyboardInterrupt), CacheWriter(path):
         raise KeyboardInterrupt
     assert path.read_bytes() == before
-    assert [p.name for p in tmp_path.iterdir()] == ["run.npz"]
+    assert [p.name for p in tmp_path.iterdir()] == [f"run{suffix}"]
 
 
 # -- bad input ---------------------------------------------------------------------------
 
 
-def test_frame_selection_errors(tmp_path):
-    path = tmp_path / "run.npz"
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_frame_selection_errors(tmp_path, suffix):
+    path = tmp_path / f"run{suffix}"
     record(path, 2)
     cache = load_cache(path)
     with pytest.raises(ValueError, match="name the one you want"):
@@ -204,14 +212,14 @@ def test_add_frame_errors(tmp_path):
     cache.close()
     with pytest.raises(ValueError, match="closed"):
         cache.add_frame(0.2, {"fountain": fountain})
-    with pytest.raises(ValueError, match=r"must end in \.npz"):
+    with pytest.raises(ValueError, match=r"must end in \.h5, \.hdf5 or \.npz"):
         CacheWriter(tmp_path / "run.npy")
 
 
 def test_not_a_cache(tmp_path):
     text = tmp_path / "notes.npz"
     text.write_text("not an archive")
-    with pytest.raises(ValueError, match=r"not a motes cache: not a NumPy .npz"):
+    with pytest.raises(ValueError, match=r"not a motes cache: not an HDF5 or NumPy .npz"):
         load_cache(text)
     empty = tmp_path / "empty.npz"
     empty.write_bytes(b"")
@@ -246,8 +254,8 @@ def test_newer_version_and_damaged_files(tmp_path):
     good = tmp_path / "run.npz"
     record(good, 2)
     newer = tmp_path / "newer.npz"
-    rewrite(good, newer, version=np.array(3))
-    with pytest.raises(ValueError, match="format version 3, newer than this motes reads"):
+    rewrite(good, newer, version=np.array(4))
+    with pytest.raises(ValueError, match="format version 4, newer than this motes reads"):
         load_cache(newer)
     missing = tmp_path / "missing.npz"
     rewrite(good, missing, **{"puff/offsets": None})
@@ -274,10 +282,11 @@ def test_newer_version_and_damaged_files(tmp_path):
 
 
 @pytest.mark.parametrize("kind", KINDS)
-def test_round_trip_of_every_kind_equals_the_live_state(tmp_path, kind):
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_round_trip_of_every_kind_equals_the_live_state(tmp_path, kind, suffix):
     make = KINDS[kind][0]
     thing = make()
-    path = tmp_path / f"{kind}.npz"
+    path = tmp_path / f"{kind}{suffix}"
     live = []
     with CacheWriter(path, scene="test", seed=7) as cache:
         for _ in range(3):
@@ -334,3 +343,139 @@ def test_format_version_1_files_are_read_under_the_new_names(tmp_path):
     np.testing.assert_array_equal(state.ids, [4, 5, 6])
     np.testing.assert_array_equal(state.radius, np.float32(0.05))  # the size default
     assert state.unit("velocities") == "m/s"
+
+
+# -- the HDF5 container: streamed, compressed, optionally lossy --------------------------
+
+
+def test_hdf5_layout_mirrors_the_npz_keys_and_is_compressed(tmp_path):
+    h5py = pytest.importorskip("h5py")
+    record(tmp_path / "run.npz", 4, scene="fire", seed=3, fps=30.0)
+    record(tmp_path / "run.h5", 4, scene="fire", seed=3, fps=30.0)
+    with np.load(tmp_path / "run.npz") as npz, h5py.File(tmp_path / "run.h5") as h5:
+        datasets = set()
+        h5.visititems(lambda k, v: datasets.add(k) if isinstance(v, h5py.Dataset) else None)
+        assert datasets == set(npz.files) | {"significant_digits"}
+        assert h5["format"].asstr()[()] == "motes-cache" and int(h5["version"][()]) == 3
+        assert h5["scene"].asstr()[()] == "fire" and int(h5["seed"][()]) == 3
+        assert int(h5["significant_digits"][()]) == -1
+        for key in set(npz.files) - {"version"}:
+            if npz[key].dtype.kind == "U":
+                assert list(np.atleast_1d(h5[key].asstr()[()])) == list(np.atleast_1d(npz[key]))
+            else:
+                np.testing.assert_array_equal(h5[key][()], npz[key])
+                assert h5[key].dtype == npz[key].dtype
+        positions = h5["fountain/positions"]
+        assert positions.chunks is not None and positions.maxshape == (None, 3)
+        assert positions.compression == "gzip" and positions.shuffle
+
+
+def test_significant_digits_bound_the_relative_error_and_shrink_the_file(tmp_path):
+    exact = tmp_path / "exact.h5"
+    lossy = tmp_path / "lossy.h5"
+    record(exact, 12)
+    record(lossy, 12, significant_digits=3)
+    with load_cache(exact) as want, load_cache(lossy) as got:
+        assert (want.significant_digits, got.significant_digits) == (None, 3)
+        assert got.lossy and not want.lossy
+        for f in range(12):
+            a, b = want.frame(f, "fountain"), got.frame(f, "fountain")
+            np.testing.assert_array_equal(a["ids"], b["ids"])  # integers kept exactly
+            for key in ("positions", "velocities", "color", "radius", "age"):
+                error = np.abs(b[key].astype(np.float64) - a[key])
+                assert np.all(error <= 0.5e-3 * np.abs(a[key].astype(np.float64)))
+    assert lossy.stat().st_size < exact.stat().st_size
+    with pytest.raises(ValueError, match=r"needs an \.h5 cache"):
+        CacheWriter(tmp_path / "run.npz", significant_digits=3)
+    with pytest.raises(ValueError, match=r"significant_digits must be in \[1, 15\]"):
+        CacheWriter(lossy, significant_digits=16)
+
+
+def test_round_significant_matches_a_frexp_reference():
+    from motes.io.cache_h5 import round_significant
+
+    rng = np.random.default_rng(4)
+    values = (rng.standard_normal(20_000) * 10.0 ** rng.integers(-6, 6, 20_000)).astype(np.float32)
+    values[:4] = [0.0, -0.0, 1.5, 2.5]
+    for digits in (1, 3, 5):
+        bits = int(np.ceil(digits * np.log2(10))) + 1  # significant bits with the leading one
+        mantissa, exponent = np.frexp(values.astype(np.float64))
+        want = np.ldexp(np.rint(mantissa * 2.0**bits), exponent - bits)  # ties to even
+        np.testing.assert_array_equal(round_significant(values, digits), want.astype(np.float32))
+    special = np.array([np.nan, np.inf, -np.inf], np.float32)
+    np.testing.assert_array_equal(round_significant(special, 2), special)
+    assert round_significant(values, 8) is values  # float32 holds no more than 7 digits
+
+
+def peak_memory_of_a_run(path, frames: int, store) -> int:
+    """Peak bytes NumPy and Python allocated while ``frames`` frames were cached."""
+    import tracemalloc
+
+    with CacheWriter(path) as cache:
+        cache.add_frame(0.0, {"store": store})  # the first frame sets up the file
+        tracemalloc.start()
+        for k in range(1, frames):
+            store["position"][:, 0] = k
+            cache.add_frame(k * DT, {"store": store})
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    return peak
+
+
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_memory_stays_flat_however_many_frames(tmp_path, suffix):
+    from motes.io import cache_h5
+
+    store = mo.ParticleStore(50_000, ("color",))
+    store.spawn(50_000)
+    state = store.particle_state()
+    frame_bytes = sum(state[a].nbytes for a in state.names())  # 3 MB
+    peak = peak_memory_of_a_run(tmp_path / f"long{suffix}", 90, store)
+    # What a writer may hold whatever the frame count: a frame's copy for the sink; for
+    # .h5 also the chunks being encoded (each with its shuffled and deflated bytes) and
+    # the partly filled chunk of each of the 5 attributes.
+    held = 2 * frame_bytes
+    if suffix == ".h5":
+        held += (2 * cache_h5.IN_FLIGHT + 2 * cache_h5.ENCODERS + 5) * cache_h5.CHUNK_BYTES
+    assert peak < held < 90 * frame_bytes / 6
+    with load_cache(tmp_path / f"long{suffix}") as loaded:
+        assert loaded.frame_count == 90
+        np.testing.assert_array_equal(loaded.frame(89, "store")["positions"][:, 0], 89)
+
+
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_a_write_that_fails_midway_keeps_the_whole_frames(tmp_path, suffix, monkeypatch):
+    from motes.io import cache_h5, cache_npz
+
+    path = tmp_path / f"run{suffix}"
+    fountain, puff = make_systems()
+    sink = cache_h5.H5Sink if suffix == ".h5" else cache_npz.NpzSink
+    add = sink.add
+
+    class HalfWritten(dict):
+        """A frame's record whose second entry cannot be written (the disk is full)."""
+
+        def items(self):
+            yield from list(super().items())[:1]
+            raise OSError("No space left on device")
+
+    def fail_at_frame_3(self, time, record):
+        add(self, time, HalfWritten(record) if cache.frame_count == 3 else record)
+
+    monkeypatch.setattr(sink, "add", fail_at_frame_3)
+    with CacheWriter(path) as cache:
+        for k in range(5):
+            fountain.step(DT)
+            puff.step(DT)
+            if k < 3:
+                cache.add_frame(fountain.time, {"fountain": fountain, "puff": puff})
+            elif k == 3:
+                with pytest.raises(OSError, match="No space"):
+                    cache.add_frame(fountain.time, {"fountain": fountain, "puff": puff})
+            else:
+                with pytest.raises(ValueError, match="failed at frame 3"):
+                    cache.add_frame(fountain.time, {"fountain": fountain, "puff": puff})
+    with load_cache(path) as loaded:
+        assert loaded.frame_count == 3
+        assert len(loaded.array("positions", "fountain")) == loaded.offsets("fountain")[-1]
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]

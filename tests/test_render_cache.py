@@ -47,7 +47,7 @@ def frames(folder):
 def test_a_cached_scene_file_draws_again_pixel_for_pixel(tmp_path, capsys):
     scene = tmp_path / "puff.toml"
     scene.write_text(SCENE)
-    cache = tmp_path / "puff.npz"
+    cache = tmp_path / "puff.h5"
     assert cli("run", scene, "-o", tmp_path / "live", "--export", cache, "-q") == 0
     # The cache records the scene's name, not the file: the file is asked for.
     assert cli("render", cache, "-o", tmp_path / "again", "-q") == 2
@@ -65,7 +65,7 @@ def test_a_cached_scene_file_draws_again_pixel_for_pixel(tmp_path, capsys):
 
 
 def test_the_cloth_of_a_builtin_scene_draws_again_pixel_for_pixel(tmp_path):
-    cache = tmp_path / "cloth.npz"
+    cache = tmp_path / "cloth.h5"
     live, again = tmp_path / "live", tmp_path / "again"
     common = ("--resolution", "96x54", "-q")
     assert cli("run", "cloth_drop", "--frames", 3, "-o", live, "--export", cache, *common) == 0
@@ -116,7 +116,7 @@ def test_a_body_that_cannot_be_drawn_from_a_cache_is_refused_by_name(tmp_path):
 def test_a_flock_draws_again_pixel_for_pixel(tmp_path, draw):
     scene = tmp_path / "flock.toml"
     scene.write_text(FLOCK.format(draw=draw, trail=0))
-    cache, live, again = tmp_path / "flock.npz", tmp_path / "live", tmp_path / "again"
+    cache, live, again = tmp_path / "flock.h5", tmp_path / "live", tmp_path / "again"
     args = ("--frames", 4, "-q")
     assert cli("run", scene, "-o", live, "--export", cache, *args) == 0
     assert cli("render", cache, "-o", again, "--scene", scene, "-q") == 0

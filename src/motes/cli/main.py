@@ -26,7 +26,7 @@ examples:
   motes run fire -o fire.gif --frames 60  60 frames to an animated GIF
   motes run smoke -o still.png            the last frame as a PNG
   motes run my_scene.toml -o frames/      a numbered PNG sequence in frames/
-  motes run rain --resolution 640x360 --seed 3 --export rain.npz
+  motes run rain --resolution 640x360 --seed 3 --export rain.h5
   motes run cloth_drop --no-render --export cloth.usdc    OpenUSD for Blender, Houdini
   motes run fountain --no-render --export out/drops.####.ply  a PLY file per frame
   motes run fire --set system.flame.emitter.0.rate.rate=500 --set camera.fov=40
@@ -34,18 +34,18 @@ examples:
 
 EXPORT_EXAMPLES = """\
 examples:
-  motes export run.npz run.usdc              one time-sampled OpenUSD stage
-  motes export run.npz run.pvd               ParaView: run.pvd and run/*.vtp
-  motes export run.npz frames/run.####.geo   Houdini: a .geo file per frame
+  motes export run.h5 run.usdc               one time-sampled OpenUSD stage
+  motes export run.h5 run.pvd                ParaView: run.pvd and run/*.vtp
+  motes export run.h5 frames/run.####.geo    Houdini: a .geo file per frame
 """
 
 RENDER_EXAMPLES = """\
 examples:
-  motes run rain --no-render --export rain.npz   simulate once ...
-  motes render rain.npz -o rain.mp4              ... draw it as often as wanted
-  motes render rain.npz -o still.png --frames 119:120 --resolution 1920x1080
-  motes render run.npz -o frames/ --scene my_scene.toml   a cache of a scene file
-  motes render rain.npz -o frames/ --workers 2   on a local Dask cluster (resumable)
+  motes run rain --no-render --export rain.h5    simulate once ...
+  motes render rain.h5 -o rain.mp4               ... draw it as often as wanted
+  motes render rain.h5 -o still.png --frames 119:120 --resolution 1920x1080
+  motes render run.h5 -o frames/ --scene my_scene.toml   a cache of a scene file
+  motes render rain.h5 -o frames/ --workers 2    on a local Dask cluster (resumable)
 """
 
 
@@ -71,6 +71,17 @@ def _positive(text: str) -> float:
         raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
     if not 0 < value < float("inf"):
         raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
+def _digits(text: str) -> int:
+    """An argparse type: significant decimal digits, an integer in [1, 15]."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 1 <= value <= 15:
+        raise argparse.ArgumentTypeError(f"must be in [1, 15], got {value}")
     return value
 
 
@@ -148,9 +159,16 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument(
         "--export",
         metavar="PATH",
-        help="also write the particles for other tools, by extension: CACHE.npz "
+        help="also write the particles for other tools, by extension: CACHE.h5 or .npz "
         "(docs/cache-format.md), .usd/.usda/.usdc (OpenUSD), .pvd (ParaView), or a file "
         "per frame NAME.####.ply / NAME.####.geo (docs/exports.md)",
+    )
+    run.add_argument(
+        "--significant-digits",
+        type=_digits,
+        metavar="D",
+        help="with --export CACHE.h5: keep D significant decimal digits (1 to 15) of every "
+        "float attribute; lossy and smaller (3: within 0.05 %%, about half the size)",
     )
     run.add_argument(
         "--no-render", action="store_true", help="simulate (and export) without rendering images"
@@ -169,13 +187,13 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
     export = sub.add_parser(
         "export",
-        help="convert a particle cache (.npz) to OpenUSD, VTK, PLY or Houdini .geo",
-        description="Write the frames of a cache that motes run --export CACHE.npz wrote "
+        help="convert a particle cache (.h5, .npz) to OpenUSD, VTK, PLY or Houdini .geo",
+        description="Write the frames of a cache that motes run --export CACHE.h5 wrote "
         "in another format, chosen by OUT's extension (see docs/exports.md).",
         epilog=EXPORT_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    export.add_argument("cache", metavar="CACHE", help="a .npz particle cache")
+    export.add_argument("cache", metavar="CACHE", help="a particle cache (.h5 or .npz)")
     export.add_argument(
         "output",
         metavar="OUT",
@@ -190,15 +208,15 @@ def _parser() -> argparse.ArgumentParser:
     export.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
     render = sub.add_parser(
         "render",
-        help="draw a particle cache (.npz) again with its scene, without simulating",
-        description="Draw the frames of a cache that motes run --export CACHE.npz wrote, "
+        help="draw a particle cache (.h5, .npz) again with its scene, without simulating",
+        description="Draw the frames of a cache that motes run --export CACHE.h5 wrote, "
         "with the look of the scene it records (camera, lights, objects, looks), as "
         "motes run drew them. Emitter systems, cloth, hair, liquids and flocks can be drawn "
         "from a cache.",
         epilog=RENDER_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    render.add_argument("cache", metavar="CACHE", help="a .npz particle cache")
+    render.add_argument("cache", metavar="CACHE", help="a particle cache (.h5 or .npz)")
     render.add_argument(
         "-o",
         "--output",
@@ -620,9 +638,18 @@ def _run(args) -> int:
     _check_writable(output)
     # Every mistake in --export (its extension, ####, its folder, a missing package) is
     # found here, before the first frame is simulated.
+    if args.significant_digits is not None and Path(args.export or "").suffix.lower() not in (
+        ".h5",
+        ".hdf5",
+    ):
+        raise UserError("--significant-digits needs --export CACHE.h5 (an HDF5 cache)")
+    digits = (
+        {} if args.significant_digits is None else {"significant_digits": args.significant_digits}
+    )
     exporter = (
         _exporter(
             args.export,
+            **digits,
             fps=scene.fps,
             scene=scene.name,
             seed=scene.seed,

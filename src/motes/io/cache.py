@@ -1,21 +1,30 @@
-"""Particle cache: per-frame particle states of named systems and bodies, in one ``.npz``.
+"""Particle cache: per-frame particle states of named systems and bodies, in one file.
 
-This is what ``motes run ... --export CACHE.npz`` writes, for other tools (renderers,
-DCC importers, analysis notebooks) to read back, with :func:`load_cache` or with NumPy
-alone. Anything with a :class:`~motes.state.ParticleState` is recorded through it:
-emitter systems, liquids, cloth, hair and rigid worlds alike.
+This is what ``motes run ... --export CACHE.h5`` (or ``CACHE.npz``) writes, for
+``motes render`` and ``motes export`` and for other tools (renderers, DCC importers,
+analysis notebooks) to read back, with :func:`load_cache`, h5py or NumPy alone. Anything
+with a :class:`~motes.state.ParticleState` is recorded through it: emitter systems,
+liquids, cloth, hair, rigid worlds and flocks alike.
 
-File layout (format version 2)
-------------------------------
-A ZIP archive of ``.npy`` arrays, readable with ``numpy.load(path)`` (no pickles:
-``allow_pickle=False`` works). ``F`` is the number of frames; for each entry ``S`` (a
+Two containers hold the same keys, chosen by the extension: ``.h5`` (format version 3,
+HDF5: each frame appended to chunked datasets, shuffled and deflated, optionally rounded
+to ``significant_digits``; :mod:`motes.io.cache_h5`) and ``.npz`` (format version 2, a
+ZIP of ``.npy`` arrays that NumPy alone reads; :mod:`motes.io.cache_npz`). Both write
+frame by frame with flat memory. ``docs/cache-format.md`` has sizes and speeds.
+
+File layout
+-----------
+An ``.npz`` is a ZIP archive of ``.npy`` arrays, readable with ``numpy.load(path)`` (no
+pickles: ``allow_pickle=False`` works); in an ``.h5`` file ``S/NAME`` is the dataset
+``NAME`` of the group ``S``, strings are UTF-8, and the key ``significant_digits``
+(int64, ``-1`` for none) is added. ``F`` is the number of frames; for each entry ``S`` (a
 system or a body), ``N_S`` is its total number of particle records over all frames.
 
 =====================  ============  ==========  ============================================
 key                    shape         dtype       meaning
 =====================  ============  ==========  ============================================
 ``format``             ()            str         always ``"motes-cache"``
-``version``            ()            int64       format version, ``2``
+``version``            ()            int64       ``3`` (``.h5``) or ``2`` (``.npz``)
 ``motes_version``      ()            str         version of motes that wrote the file
 ``scene``              ()            str         scene name; ``""`` when not from a scene
 ``seed``               ()            int64       the scene's seed; ``-1`` when not given
@@ -74,17 +83,17 @@ attributes renamed to version 2's.
 
 Writing is atomic: the file is built under a temporary name and moved into place when
 complete, also when :class:`CacheWriter` is closed by an exception or Ctrl-C, with the
-frames added so far. A writer closed with no frame writes nothing and leaves an existing
-file as it was.
+frames added so far (a frame is whole in the file or cut from it). A writer closed with
+no frame writes nothing and leaves an existing file as it was.
 
 Examples
 --------
->>> with CacheWriter("run.npz", scene="fire", seed=1) as cache:  # doctest: +SKIP
+>>> with CacheWriter("run.h5", scene="fire", seed=1) as cache:  # doctest: +SKIP
 ...     for _ in range(100):
 ...         fire.step(1 / 60)
 ...         water.step(1 / 60)
 ...         cache.add_frame(fire.time, {"fire": fire, "water": water})
->>> cache = load_cache("run.npz")  # doctest: +SKIP
+>>> cache = load_cache("run.h5")  # doctest: +SKIP
 >>> cache.frame(10, "fire")["positions"].shape  # doctest: +SKIP
 (1234, 3)
 >>> cache.state(10, "water").positions.shape  # doctest: +SKIP
@@ -95,6 +104,7 @@ from __future__ import annotations
 
 import json
 import os
+import weakref
 import zipfile
 import zlib
 from collections.abc import Mapping
@@ -105,13 +115,16 @@ import numpy as np
 from .. import _validate as check
 from ..particles import BUILTIN
 from ..state import CORE, Field, ParticleState
-from ._atomic import replacing
+from ._atomic import DeferredInterrupt
 from .entry import Entry, as_entry
 
 #: Value of the ``format`` entry.
 FORMAT = "motes-cache"
-#: Format version this module writes and the newest it reads.
-VERSION = 2
+#: Format version of the ``.h5`` container, and the newest this module reads (``.npz``
+#: files are version 2: the same keys in a ZIP of ``.npy`` arrays).
+VERSION = 3
+#: Cache file extensions (``.h5`` and ``.hdf5``: version 3; ``.npz``: version 2).
+SUFFIXES = (".h5", ".hdf5", ".npz")
 #: Format version 1's attribute names, in version 2's names.
 V1_NAMES = {
     "position": "positions",
@@ -187,15 +200,25 @@ class _Layout:
 
 
 class CacheWriter:
-    """Collects frames of particle states and writes them as one cache file on close.
+    """Writes frames of particle states into a cache file as they come.
+
+    The container is chosen by the extension: ``.h5`` (format version 3, HDF5: each
+    frame appended to chunked, compressed datasets) or ``.npz`` (format version 2, a ZIP
+    of ``.npy`` arrays that NumPy alone reads: each frame spooled to disk, the archive
+    written on :meth:`close`). Either way memory stays flat however many frames come.
 
     Parameters
     ----------
     path : str or os.PathLike
-        Output file, ending in ``.npz``.
-    compress : bool
-        Deflate the arrays (smaller, slower to write and read). Off by default, like
-        :func:`numpy.savez`.
+        Output file, ending in ``.h5`` (or ``.hdf5``) or ``.npz``.
+    compress : bool, optional
+        Compress the per-particle arrays: byte shuffle and deflate in ``.h5`` (on by
+        default), deflate of the ZIP members in ``.npz`` (off by default, like
+        :func:`numpy.savez`; it gains little on particle data).
+    significant_digits : int, optional
+        ``.h5`` only: significant decimal digits kept of every floating-point attribute,
+        1 to 15 (``4``: within 0.5e-4 of each value, relative, so 0.15 mm at 3 m from the
+        origin); lossy, and about twice smaller again. None (the default) keeps every bit.
     scene : str, optional
         Name of the scene the frames come from, recorded in the file.
     seed : int, optional
@@ -206,34 +229,38 @@ class CacheWriter:
     overrides : Mapping[str, object], optional
         Values set over the scene file's (key path -> value, as ``motes run --set``
         gives them), recorded as JSON; values JSON cannot hold are recorded as text.
-
-    Notes
-    -----
-    Each :meth:`add_frame` copies every attribute of the live particles (about 60 bytes
-    per particle for a coloured, sized system in float32) and keeps them in memory until
-    :meth:`close`, which streams them into the file without concatenating them first.
-    A long run of a large system needs memory for the whole cache.
     """
 
     def __init__(
         self,
         path,
         *,
-        compress: bool = False,
+        compress: bool | None = None,
+        significant_digits: int | None = None,
         scene: str | None = None,
         seed: int | None = None,
         fps: float | None = None,
         overrides: Mapping[str, object] | None = None,
     ):
         path = Path(path)
-        if path.suffix.lower() != ".npz":
-            raise ValueError(f"path must end in .npz, got {str(path)!r}")
+        suffix = path.suffix.lower()
+        if suffix not in SUFFIXES:
+            raise ValueError(f"path must end in .h5, .hdf5 or .npz, got {str(path)!r}")
         if not path.parent.is_dir():
             raise FileNotFoundError(f"directory {str(path.parent)!r} does not exist")
         if scene is not None and not isinstance(scene, str):
             raise TypeError(f"scene must be a string, got {type(scene).__name__}")
+        hdf5 = suffix != ".npz"
+        digits = significant_digits
+        if digits is not None:
+            if not hdf5:
+                raise ValueError("significant_digits (lossy) needs an .h5 cache, not .npz")
+            digits = check.integer("significant_digits", digits, low=1)
+            if digits > 15:
+                raise ValueError(f"significant_digits must be in [1, 15], got {digits}")
         self.path = path
-        self.compress = bool(compress)
+        self.compress = hdf5 if compress is None else bool(compress)
+        self.significant_digits = digits
         self.scene = scene
         self.seed = None if seed is None else check.integer("seed", seed, low=0)
         self.fps = None if fps is None else check.positive("fps", fps)
@@ -241,20 +268,61 @@ class CacheWriter:
             raise TypeError(f"overrides must be a mapping, got {type(overrides).__name__}")
         self.overrides = json.dumps(dict(overrides or {}), default=str, sort_keys=True)
         self._layouts: dict[str, _Layout] | None = None
-        # One record per frame, appended in one step (an interruption cannot leave a
-        # frame half-recorded): (time, {name: {attribute: array}}).
-        self._frames: list[tuple[float, dict[str, dict[str, np.ndarray]]]] = []
+        self._sink = None
+        self._frames = 0
+        self._failed: BaseException | None = None
         self._closed = False
+
+    @property
+    def version(self) -> int:
+        """Format version of the file: 3 (``.h5``) or 2 (``.npz``)."""
+        return 2 if self.path.suffix.lower() == ".npz" else VERSION
 
     @property
     def frame_count(self) -> int:
         """Number of frames added so far."""
-        return len(self._frames)
+        return self._frames
 
     @property
     def closed(self) -> bool:
         """Whether :meth:`close` has been called."""
         return self._closed
+
+    def _header(self) -> dict:
+        from .._version import __version__
+
+        header = {
+            "format": FORMAT,
+            "version": np.int64(self.version),
+            "motes_version": __version__,
+            "scene": self.scene or "",
+            "seed": np.int64(-1 if self.seed is None else self.seed),
+            "fps": np.float64(self.fps or 0.0),
+            "overrides": self.overrides,
+        }
+        if self.version > 2:
+            digits = self.significant_digits
+            header["significant_digits"] = np.int64(-1 if digits is None else digits)
+        return header
+
+    def _open_sink(self, layouts: dict[str, _Layout]) -> None:
+        if self.version == 2:
+            from .cache_npz import NpzSink
+
+            sink = NpzSink(self.path, self._header(), compress=self.compress)
+        else:
+            from .cache_h5 import H5Sink
+
+            sink = H5Sink(
+                self.path,
+                self._header(),
+                compress=self.compress,
+                significant_digits=self.significant_digits,
+            )
+        sink.start(layouts)
+        self._sink = sink
+        # A writer dropped without close() leaves no temporary file behind.
+        self._finalizer = weakref.finalize(self, sink.abort)
 
     def add_frame(self, time: float, items: Mapping[str, object]) -> None:
         """Record the particles of each item at simulation time ``time``.
@@ -272,6 +340,8 @@ class CacheWriter:
         """
         if self._closed:
             raise ValueError(f"add_frame on a closed cache writer ({self.path})")
+        if self._failed is not None:
+            raise ValueError(f"the cache writer failed at frame {self._frames}: {self._failed}")
         time = check.real("time", time)
         if not isinstance(items, Mapping) or not items:
             raise TypeError("items must be a non-empty mapping of name -> particles")
@@ -281,65 +351,35 @@ class CacheWriter:
             layouts = {name: _Layout(entry) for name, entry in entries.items()}
         elif set(entries) != set(layouts):
             raise ValueError(
-                f"frame {len(self._frames)} gives {sorted(entries)}, but the first frame "
+                f"frame {self._frames} gives {sorted(entries)}, but the first frame "
                 f"gave {sorted(layouts)}; every frame must give the same names"
             )
-        frame = len(self._frames)
+        frame = self._frames
         record = {name: layouts[name].record(name, frame, entries[name]) for name in layouts}
-        self._layouts = layouts
-        self._frames.append((time, record))
+        if self._sink is None:
+            self._open_sink(layouts)
+            self._layouts = layouts
+        # Ctrl-C waits until the frame is whole in the file; an error on the way (a full
+        # disk) ends the writer, which still closes with the frames before it.
+        with DeferredInterrupt():
+            try:
+                self._sink.add(time, record)
+            except Exception as error:
+                self._failed = error
+                raise
+            self._frames += 1
 
     def close(self) -> None:
-        """Write the file with the frames added so far; calling it again does nothing.
+        """Finish the file with the frames added so far; calling it again does nothing.
 
         With no frame added, nothing is written (an existing file is kept).
         """
-        from .._version import __version__
-
         if self._closed:
             return
         self._closed = True
-        frames, self._frames = self._frames, []
-        if not frames:
-            return
-        compression = zipfile.ZIP_DEFLATED if self.compress else zipfile.ZIP_STORED
-        with replacing(self.path) as tmp, zipfile.ZipFile(tmp, "w", compression) as archive:
-            _put(archive, "format", np.array(FORMAT))
-            _put(archive, "version", np.array(VERSION, dtype=np.int64))
-            _put(archive, "motes_version", np.array(__version__))
-            _put(archive, "scene", np.array(self.scene or ""))
-            _put(archive, "seed", np.array(-1 if self.seed is None else self.seed, np.int64))
-            _put(archive, "fps", np.array(self.fps or 0.0, dtype=np.float64))
-            _put(archive, "overrides", np.array(self.overrides))
-            _put(archive, "times", np.array([t for t, _ in frames], dtype=np.float64))
-            _put(archive, "names", np.array(list(self._layouts), dtype=str))
-            for name, layout in self._layouts.items():
-                chunks = [record[name] for _, record in frames]
-                counts = [len(chunk["ids"]) for chunk in chunks]
-                offsets = np.zeros(len(frames) + 1, dtype=np.int64)
-                np.cumsum(counts, out=offsets[1:])
-                _put(archive, f"{name}/attributes", np.array(layout.attributes, dtype=str))
-                _put(archive, f"{name}/units", np.array(layout.units, dtype=str))
-                _put(archive, f"{name}/docs", np.array(layout.docs, dtype=str))
-                _put(archive, f"{name}/offsets", offsets)
-                for attribute, dtype, components in zip(
-                    layout.attributes, layout.dtypes, layout.components, strict=True
-                ):
-                    shape = (int(offsets[-1]), *components)
-                    _put_chunks(
-                        archive, f"{name}/{attribute}", dtype, shape, (c[attribute] for c in chunks)
-                    )
-                if layout.faces is not None:
-                    _put(archive, f"{name}/faces", layout.faces)
-                if layout.curves is not None:
-                    _put(archive, f"{name}/curves", layout.curves)
-                if layout.bodies is not None:
-                    for key, tail in (("body_centers", (3,)), ("body_rotations", (3, 3))):
-                        shape = (len(frames), layout.bodies, *tail)
-                        _put_chunks(
-                            archive, f"{name}/{key}", np.dtype(np.float64), shape,
-                            (c[key] for c in chunks),
-                        )  # fmt: skip
+        if self._sink is not None:
+            self._finalizer.detach()
+            self._sink.finish()
 
     def __enter__(self) -> CacheWriter:
         return self
@@ -349,22 +389,6 @@ class CacheWriter:
 
     def __repr__(self) -> str:
         return f"CacheWriter({str(self.path)!r}, frame_count={self.frame_count})"
-
-
-def _put(archive: zipfile.ZipFile, key: str, array: np.ndarray) -> None:
-    with archive.open(f"{key}.npy", "w", force_zip64=True) as member:
-        np.lib.format.write_array(member, np.asanyarray(array), allow_pickle=False)
-
-
-def _put_chunks(archive: zipfile.ZipFile, key: str, dtype: np.dtype, shape: tuple, chunks) -> None:
-    """Write the concatenation of ``chunks`` as one ``.npy`` member, chunk by chunk."""
-    header = {"descr": np.lib.format.dtype_to_descr(dtype), "fortran_order": False, "shape": shape}
-    with archive.open(f"{key}.npy", "w", force_zip64=True) as member:
-        np.lib.format.write_array_header_1_0(member, header)
-        for chunk in chunks:
-            if chunk.size:
-                # flat bytes of the C-ordered chunk, without a copy
-                member.write(memoryview(chunk.reshape(-1).view(np.uint8)))
 
 
 class Cache:
@@ -389,6 +413,12 @@ class Cache:
         recorded).
     motes_version : str or None
         Version of motes that wrote the file (None before format version 2).
+    significant_digits : int or None
+        Significant decimal digits kept of floating-point attributes in a lossy ``.h5``
+        cache; None when every bit was kept.
+
+    An ``.h5`` cache is read lazily: a frame's rows are read from the file when asked
+    for, and the file stays open until :meth:`close` (or the end of a ``with`` block).
     """
 
     def __init__(
@@ -404,7 +434,9 @@ class Cache:
         fps: float | None = None,
         overrides: dict | None = None,
         motes_version: str | None = None,
+        significant_digits: int | None = None,
         shapes: dict[str, dict[str, np.ndarray]] | None = None,
+        close=None,
     ):
         self.times = times
         self.fps = fps
@@ -414,11 +446,31 @@ class Cache:
         self.scene = scene
         self.seed = seed
         self.motes_version = motes_version
+        self.significant_digits = significant_digits
         self._offsets = offsets
         self._arrays = arrays
         self._fields = fields
         # per entry: faces, curves, body_centers (F, b, 3), body_rotations (F, b, 3, 3)
         self._shapes = shapes or {}
+        self._close = close
+
+    def close(self) -> None:
+        """Close the file (an ``.h5`` cache reads frames from it when asked); arrays
+        already read stay valid."""
+        close, self._close = self._close, None
+        if close is not None:
+            close()
+
+    def __enter__(self) -> Cache:
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.close()
+
+    @property
+    def lossy(self) -> bool:
+        """Whether floating-point attributes were stored to fewer digits than they had."""
+        return self.significant_digits is not None
 
     @property
     def systems(self) -> tuple[str, ...]:
@@ -476,7 +528,7 @@ class Cache:
             raise KeyError(
                 f"attribute {attribute!r} was not recorded; the cache has {list(arrays)}"
             )
-        return arrays[attribute]
+        return _read_only(arrays[attribute][()])
 
     def frame(self, index: int, name: str | None = None) -> dict[str, np.ndarray]:
         """One frame's particles of entry ``name``, one row per particle.
@@ -496,7 +548,7 @@ class Cache:
         name = self._name(name)
         f = self._index(index)
         start, stop = self._offsets[name][f : f + 2]
-        return {a: values[start:stop] for a, values in self._arrays[name].items()}
+        return {a: _read_only(values[start:stop]) for a, values in self._arrays[name].items()}
 
     def state(self, index: int, name: str | None = None) -> ParticleState:
         """One frame of entry ``name`` as the :class:`~motes.state.ParticleState` it was
@@ -534,16 +586,17 @@ class Cache:
 
 
 def load_cache(path) -> Cache:
-    """Read a particle cache written by :class:`CacheWriter` (format version 1 or 2).
+    """Read a particle cache written by :class:`CacheWriter` (format version 1 to 3).
 
     Parameters
     ----------
     path : str or os.PathLike
-        A ``.npz`` cache file.
+        A cache file: ``.h5`` (read lazily, frame by frame) or ``.npz`` (read whole).
 
     Returns
     -------
     Cache
+        Close it when done (or use it in a ``with`` block) to close an ``.h5`` file.
 
     Raises
     ------
@@ -551,102 +604,123 @@ def load_cache(path) -> Cache:
         If the file is not a motes cache, is damaged, or was written in a newer format
         version than this motes reads.
     """
+    from . import cache_h5, cache_npz
+
     shown = os.fspath(path)
     try:
-        data = np.load(path, allow_pickle=False)
+        hdf5 = cache_h5.is_hdf5(path)
+        keys, read, close = (cache_h5 if hdf5 else cache_npz).open_keys(path)
     except FileNotFoundError:
         raise
+    except TypeError as err:
+        raise ValueError(f"{shown} is not a motes cache: {err}") from None
     except (ValueError, OSError, EOFError, zipfile.BadZipFile) as err:
-        raise ValueError(f"{shown} is not a motes cache: not a NumPy .npz file ({err})") from None
-    if not isinstance(data, np.lib.npyio.NpzFile):
-        raise ValueError(f"{shown} is not a motes cache: a single NumPy array, not an .npz file")
-    with data:
-        keys = set(data.files)
+        raise ValueError(
+            f"{shown} is not a motes cache: not an HDF5 or NumPy .npz file ({err})"
+        ) from None
+    try:
+        return _read(shown, keys, read, close)
+    except BaseException:
+        close()
+        raise
 
-        def get(key: str) -> np.ndarray:
-            if key not in keys:
-                raise ValueError(f"{shown} is a damaged motes cache: entry {key!r} is missing")
-            try:
-                array = data[key]
-            except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as err:
-                raise ValueError(f"{shown} is a damaged motes cache: {key!r}: {err}") from None
+
+def _read(shown: str, keys: set[str], read, close) -> Cache:
+    """The :class:`Cache` of a file's ``keys``, read by ``read(key, lazy)`` and checked."""
+
+    def get(key: str, lazy: bool = False) -> np.ndarray:
+        if key not in keys:
+            raise ValueError(f"{shown} is a damaged motes cache: entry {key!r} is missing")
+        try:
+            array = read(key, lazy)
+        except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as err:
+            raise ValueError(f"{shown} is a damaged motes cache: {key!r}: {err}") from None
+        if isinstance(array, np.ndarray):
             array.setflags(write=False)
-            return array
+        return array
 
-        if "format" not in keys:
-            raise ValueError(f"{shown} is not a motes cache: it has no 'format' entry")
-        kind = get("format")
-        if kind.shape != () or kind.dtype.kind != "U" or str(kind) != FORMAT:
-            raise ValueError(f"{shown} is not a motes cache: its format is not {FORMAT!r}")
-        version = get("version")
-        if version.shape != () or not np.issubdtype(version.dtype, np.integer) or version < 1:
-            raise ValueError(f"{shown} is a damaged motes cache: bad version entry {version!r}")
-        version = int(version)
-        if version > VERSION:
-            raise ValueError(
-                f"{shown} is a motes cache of format version {version}, newer than this "
-                f"motes reads (version {VERSION}); upgrade motes to read it"
-            )
-        times = get("times")
-        names = get("names" if version >= 2 else "systems")
-        if times.ndim != 1 or names.ndim != 1:
-            raise ValueError(f"{shown} is a damaged motes cache: times or names not 1-D")
-        offsets: dict[str, np.ndarray] = {}
-        arrays: dict[str, dict[str, np.ndarray]] = {}
-        fields: dict[str, dict[str, tuple[str, str]]] = {}
-        shapes: dict[str, dict[str, np.ndarray]] = {}
-        for name in map(str, names):
-            offs = get(f"{name}/offsets")
-            if offs.shape != (len(times) + 1,) or offs[0] != 0 or np.any(np.diff(offs) < 0):
-                raise ValueError(f"{shown} is a damaged motes cache: bad {name}/offsets")
-            offsets[name] = offs
-            stored = list(map(str, get(f"{name}/attributes")))
-            if version >= 2:
-                attributes = stored
-                units = list(map(str, get(f"{name}/units")))
-                docs = list(map(str, get(f"{name}/docs")))
-                if len(units) != len(stored) or len(docs) != len(stored):
-                    raise ValueError(f"{shown} is a damaged motes cache: bad {name}/units or docs")
-            else:
-                attributes = [V1_NAMES.get(a, a) for a in stored]
-                units = [_V1_FIELDS.get(a, ("", ""))[0] for a in attributes]
-                docs = [_V1_FIELDS.get(a, ("", ""))[1] for a in attributes]
-            missing = {"ids", "positions", "velocities"} - set(attributes)
-            if missing:
-                raise ValueError(
-                    f"{shown} is a damaged motes cache: {name} lacks {sorted(missing)}"
-                )
-            arrays[name] = {}
-            fields[name] = {}
-            for key, attribute, unit, doc in zip(stored, attributes, units, docs, strict=True):
-                values = get(f"{name}/{key}")
-                rows = int(offs[-1])
-                core = {"positions": (rows, 3), "velocities": (rows, 3), "ids": (rows,)}
-                shape = core.get(attribute, (rows,) if attribute == "radius" else values.shape)
-                if values.shape[:1] != (rows,) or values.ndim > 2 or values.shape != shape:
-                    raise ValueError(
-                        f"{shown} is a damaged motes cache: {name}/{key} has shape "
-                        f"{values.shape}, expected ({rows}, ...)"
-                    )
-                arrays[name][attribute] = values
-                fields[name][attribute] = (unit, doc)
-            shapes[name] = _shapes(
-                name, get, keys, len(times), int(offs[min(1, len(times))]), shown
-            )
-        meta = {}
+    if "format" not in keys:
+        raise ValueError(f"{shown} is not a motes cache: it has no 'format' entry")
+    kind = get("format")
+    if kind.shape != () or kind.dtype.kind != "U" or str(kind) != FORMAT:
+        raise ValueError(f"{shown} is not a motes cache: its format is not {FORMAT!r}")
+    version = get("version")
+    if version.shape != () or not np.issubdtype(version.dtype, np.integer) or version < 1:
+        raise ValueError(f"{shown} is a damaged motes cache: bad version entry {version!r}")
+    version = int(version)
+    if version > VERSION:
+        raise ValueError(
+            f"{shown} is a motes cache of format version {version}, newer than this "
+            f"motes reads (version {VERSION}); upgrade motes to read it"
+        )
+    times = get("times")
+    names = get("names" if version >= 2 else "systems")
+    if times.ndim != 1 or names.ndim != 1:
+        raise ValueError(f"{shown} is a damaged motes cache: times or names not 1-D")
+    offsets: dict[str, np.ndarray] = {}
+    arrays: dict[str, dict[str, np.ndarray]] = {}
+    fields: dict[str, dict[str, tuple[str, str]]] = {}
+    shapes: dict[str, dict[str, np.ndarray]] = {}
+    for name in map(str, names):
+        offs = get(f"{name}/offsets")
+        if offs.shape != (len(times) + 1,) or offs[0] != 0 or np.any(np.diff(offs) < 0):
+            raise ValueError(f"{shown} is a damaged motes cache: bad {name}/offsets")
+        offsets[name] = offs
+        stored = list(map(str, get(f"{name}/attributes")))
         if version >= 2:
-            seed = int(get("seed"))
-            meta = {
-                "scene": str(get("scene")) or None,
-                "seed": None if seed < 0 else seed,
-                "motes_version": str(get("motes_version")),
-            }
-            if "overrides" in keys:
-                meta["overrides"] = _overrides(get("overrides"), shown)
-            if "fps" in keys:
-                fps = float(get("fps"))
-                meta["fps"] = fps if fps > 0 else None
-    return Cache(times, offsets, arrays, fields, version=version, shapes=shapes, **meta)
+            attributes = stored
+            units = list(map(str, get(f"{name}/units")))
+            docs = list(map(str, get(f"{name}/docs")))
+            if len(units) != len(stored) or len(docs) != len(stored):
+                raise ValueError(f"{shown} is a damaged motes cache: bad {name}/units or docs")
+        else:
+            attributes = [V1_NAMES.get(a, a) for a in stored]
+            units = [_V1_FIELDS.get(a, ("", ""))[0] for a in attributes]
+            docs = [_V1_FIELDS.get(a, ("", ""))[1] for a in attributes]
+        missing = {"ids", "positions", "velocities"} - set(attributes)
+        if missing:
+            raise ValueError(f"{shown} is a damaged motes cache: {name} lacks {sorted(missing)}")
+        arrays[name] = {}
+        fields[name] = {}
+        rows = int(offs[-1])
+        for key, attribute, unit, doc in zip(stored, attributes, units, docs, strict=True):
+            values = get(f"{name}/{key}", lazy=True)
+            core = {"positions": (rows, 3), "velocities": (rows, 3), "ids": (rows,)}
+            shape = core.get(attribute, (rows,) if attribute == "radius" else values.shape)
+            if values.shape[:1] != (rows,) or len(values.shape) > 2 or values.shape != shape:
+                raise ValueError(
+                    f"{shown} is a damaged motes cache: {name}/{key} has shape "
+                    f"{values.shape}, expected ({rows}, ...)"
+                )
+            arrays[name][attribute] = values
+            fields[name][attribute] = (unit, doc)
+        shapes[name] = _shapes(name, get, keys, len(times), int(offs[min(1, len(times))]), shown)
+    meta = {}
+    if version >= 2:
+        seed = int(get("seed"))
+        meta = {
+            "scene": str(get("scene")) or None,
+            "seed": None if seed < 0 else seed,
+            "motes_version": str(get("motes_version")),
+        }
+        if "overrides" in keys:
+            meta["overrides"] = _overrides(get("overrides"), shown)
+        if "fps" in keys:
+            fps = float(get("fps"))
+            meta["fps"] = fps if fps > 0 else None
+        if "significant_digits" in keys:
+            digits = int(get("significant_digits"))
+            meta["significant_digits"] = digits if digits >= 0 else None
+    return Cache(
+        times, offsets, arrays, fields, version=version, shapes=shapes, close=close, **meta
+    )
+
+
+def _read_only(values) -> np.ndarray:
+    """``values`` (read from a file, or a view of a read-only array) as read-only."""
+    values = np.asarray(values)
+    values.setflags(write=False)
+    return values
 
 
 def _shapes(name: str, get, keys: set, frames: int, first: int, shown: str) -> dict:

@@ -82,7 +82,13 @@ def render_on_dask(
             client = Client(scheduler, timeout="10s")
         elif own:
             cluster = LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+                n_workers=workers,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                # the scheduler's small HTTP server (health, metrics) on a free port, not
+                # on 8787, which another cluster on this machine may hold
+                scheduler_kwargs={"dashboard_address": ":0"},
             )
             client = Client(cluster)
     except OSError as error:

@@ -5,7 +5,7 @@
 ===========================  ===========================================  =============
 output                       what is written                              needs
 ===========================  ===========================================  =============
-``run.npz``                  the particle cache (docs/cache-format.md)    nothing more
+``run.h5``, ``run.npz``      the particle cache (docs/cache-format.md)    nothing more
 ``run.usd``, ``.usda``,      one time-sampled USD stage                   ``motes[usd]``
 ``.usdc``                    (:mod:`~motes.io.export.usd`)                (usd-core)
 ``run.pvd``                  a ParaView collection of per-frame ``.vtp``  ``motes[vtk]``
@@ -53,7 +53,9 @@ __all__ = [
 
 #: Suffix -> (module, class) of its writer; modules are imported on use.
 FORMATS: dict[str, tuple[str, str]] = {
-    ".npz": ("npz", "CacheExport"),
+    ".h5": ("cache", "CacheExport"),
+    ".hdf5": ("cache", "CacheExport"),
+    ".npz": ("cache", "CacheExport"),
     ".usd": ("usd", "UsdWriter"),
     ".usda": ("usd", "UsdWriter"),
     ".usdc": ("usd", "UsdWriter"),
@@ -85,8 +87,11 @@ def writer_for(
     scene: str | None = None,
     seed: int | None = None,
     overrides: Mapping[str, object] | None = None,
+    **options,
 ) -> ExportWriter:
     """The writer for ``path``, chosen by its extension (see the module docstring).
+
+    ``options`` go to the writer's class (``significant_digits`` for an ``.h5`` cache).
 
     Raises
     ------
@@ -96,7 +101,7 @@ def writer_for(
         optional package (the message names ``pip install 'motes[EXTRA]'``).
     """
     cls = writer_class(path)
-    return cls(path, fps=fps, scene=scene, seed=seed, overrides=overrides)
+    return cls(path, fps=fps, scene=scene, seed=seed, overrides=overrides, **options)
 
 
 def frame_numbers(times: np.ndarray, fps: float) -> np.ndarray:
