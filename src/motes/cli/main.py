@@ -1,4 +1,5 @@
-"""``motes run``, ``motes export``, ``motes scenes``, ``motes show``, ``motes --version``.
+"""``motes run``, ``export``, ``render``, ``wedge`` (:mod:`.wedge_command`), ``scenes``,
+``show``, ``demo`` and ``--version``.
 
 User mistakes (a bad scene key, a missing file, a bad option, a size that would not fit
 in memory, a body that diverges while the scene runs) end with exit status 2 and one
@@ -15,10 +16,19 @@ import contextlib
 import json
 import os
 import re
-import signal
 import sys
 import time
 from pathlib import Path
+
+from .common import (
+    UserError,
+    digits,
+    frame_range,
+    integer_from,
+    positive,
+    resolution,
+    terminate_as_interrupt,
+)
 
 RUN_EXAMPLES = """\
 examples:
@@ -49,67 +59,6 @@ examples:
 """
 
 
-class UserError(Exception):
-    """A mistake in what the user asked for: reported in one line, exit status 2."""
-
-
-def _resolution(text: str) -> tuple[int, int]:
-    try:
-        width, height = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must look like 1280x720, got {text!r}") from None
-    if not (1 <= width <= 16384 and 1 <= height <= 16384):
-        raise argparse.ArgumentTypeError(f"width and height must be in [1, 16384], got {text}")
-    return width, height
-
-
-def _positive(text: str) -> float:
-    """An argparse type: a finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
-    if not 0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
-    return value
-
-
-def _digits(text: str) -> int:
-    """An argparse type: significant decimal digits, an integer in [1, 15]."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-    if not 1 <= value <= 15:
-        raise argparse.ArgumentTypeError(f"must be in [1, 15], got {value}")
-    return value
-
-
-def _frame_range(text: str) -> tuple[int | None, int | None]:
-    """An argparse type: ``A:B``, either side optional (a Python slice of frames)."""
-    try:
-        start, stop = (int(v) if v.strip() else None for v in text.split(":"))
-    except ValueError:
-        message = f"must look like 10:20, 10: or :20, got {text!r}"
-        raise argparse.ArgumentTypeError(message) from None
-    return start, stop
-
-
-def _integer_from(low: int):
-    """An argparse type: an integer >= ``low``."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-        if value < low:
-            raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
-        return value
-
-    return parse
-
-
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="motes", description="motes: particle systems, simulated and rendered headless."
@@ -133,12 +82,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     run.add_argument(
         "--frames",
-        type=_integer_from(1),
+        type=integer_from(1),
         metavar="N",
         help="number of frames (default: the scene's duration × fps)",
     )
     run.add_argument(
-        "--seed", type=_integer_from(0), metavar="S", help="random seed (overrides the scene)"
+        "--seed", type=integer_from(0), metavar="S", help="random seed (overrides the scene)"
     )
     run.add_argument(
         "--set",
@@ -152,7 +101,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     run.add_argument(
         "--resolution",
-        type=_resolution,
+        type=resolution,
         metavar="WxH",
         help="image size, e.g. 1280x720 (default: the scene's)",
     )
@@ -165,7 +114,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     run.add_argument(
         "--significant-digits",
-        type=_digits,
+        type=digits,
         metavar="D",
         help="with --export CACHE.h5: keep D significant decimal digits (1 to 15) of every "
         "float attribute; lossy and smaller (3: within 0.05 %%, about half the size)",
@@ -201,7 +150,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     export.add_argument(
         "--fps",
-        type=_positive,
+        type=positive,
         metavar="F",
         help="frames per second of the cache (default: the one it records)",
     )
@@ -226,13 +175,13 @@ def _parser() -> argparse.ArgumentParser:
     )
     render.add_argument(
         "--frames",
-        type=_frame_range,
+        type=frame_range,
         metavar="A:B",
         help="the cached frames A to B - 1 (counted from 0, as Python slices; default: all)",
     )
     render.add_argument(
         "--resolution",
-        type=_resolution,
+        type=resolution,
         metavar="WxH",
         help="image size, e.g. 1280x720 (default: the scene's)",
     )
@@ -250,7 +199,7 @@ def _parser() -> argparse.ArgumentParser:
     farm = render.add_mutually_exclusive_group()
     farm.add_argument(
         "--workers",
-        type=_integer_from(1),
+        type=integer_from(1),
         metavar="N",
         help="draw the frames on a local Dask cluster of N single-threaded processes "
         "(OUT a folder; frames already in it are kept: an interrupted render resumes)",
@@ -261,6 +210,9 @@ def _parser() -> argparse.ArgumentParser:
         help="draw the frames on a running Dask cluster, e.g. tcp://host:8786 (as --workers)",
     )
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
+    from .wedge_command import add_parser as add_wedge
+
+    add_wedge(sub)
     sub.add_parser("scenes", help="list the built-in scenes")
     show = sub.add_parser(
         "show",
@@ -296,6 +248,10 @@ def main(argv: list[str] | None = None) -> int:
             return _export(args)
         if args.command == "render":
             return _render(args)
+        if args.command == "wedge":
+            from .wedge_command import run as wedge
+
+            return wedge(args)
         return _run(args)
     except (UserError, InsufficientMemoryError) as error:
         print(f"motes: error: {error}", file=sys.stderr)
@@ -454,30 +410,6 @@ def _clear_frames(folder: Path, *, overwrite: bool) -> None:
             path.unlink()
 
 
-@contextlib.contextmanager
-def _terminate_as_interrupt():
-    """SIGTERM ends a run like Ctrl-C: every output is closed with its finished frames.
-
-    The handler re-raises the signal as SIGINT, so it takes the same path, including
-    the frame writers' deferral of Ctrl-C while a frame is handed over.
-    """
-    state = {"terminated": False}
-
-    def handle(signum, frame):
-        state["terminated"] = True
-        os.kill(os.getpid(), signal.SIGINT)
-
-    try:
-        previous = signal.signal(signal.SIGTERM, handle)
-    except ValueError:  # not the main thread: leave SIGTERM alone
-        yield state
-        return
-    try:
-        yield state
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-
-
 def _warn_dropped(scene, warned: set) -> None:
     """Warn once per system whose births were dropped at its capacity."""
     for name, system in scene.systems.items():
@@ -542,7 +474,7 @@ def _render(args) -> int:
     interrupted = False
     failure = None
     with contextlib.ExitStack() as outputs:
-        signals = outputs.enter_context(_terminate_as_interrupt())
+        signals = outputs.enter_context(terminate_as_interrupt())
         # Frames are numbered as in the cache, as a render on Dask numbers them.
         opened = (
             SequenceWriter(output, start=indices[0], metadata=_record(scene))
@@ -583,7 +515,7 @@ def _render_farm(args, scene, indices, resolution, progress) -> int:
     progress.begin()
     start = time.perf_counter()
     try:
-        with _terminate_as_interrupt():
+        with terminate_as_interrupt():
             drawn = render_on_dask(
                 Path(args.cache), output, list(indices), scene=args.scene,
                 resolution=resolution, workers=args.workers, scheduler=args.scheduler,
@@ -673,7 +605,7 @@ def _run(args) -> int:
     # An ExitStack closes every output even when closing another one fails (a second
     # Ctrl-C, an ffmpeg error): each keeps the frames finished so far.
     with contextlib.ExitStack() as outputs:
-        signals = outputs.enter_context(_terminate_as_interrupt())
+        signals = outputs.enter_context(terminate_as_interrupt())
         writer = (
             outputs.enter_context(open_writer(output, fps=scene.fps, metadata=_record(scene)))
             if output

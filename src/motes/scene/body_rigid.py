@@ -101,6 +101,22 @@ class RigidScene(Body):
             self.world.particle_state(), transforms=transforms if len(transforms[0]) else None
         )
 
+    @property
+    def replayable(self) -> bool:
+        # A trail is a path over the last steps, which a cache does not hold.
+        return not self.trails
+
+    def show(self, entry: Entry, time: float) -> None:
+        state = entry.state
+        if state.count != self.world.count:
+            raise ValueError(
+                f"holds {state.count} particles; the rigid world has {self.world.count}"
+            )
+        # The bodies' transforms and every drawable follow from the particles.
+        self.world.position[:] = state.positions.T
+        if "previous" in state:
+            self.world.previous[:] = state["previous"].T
+
     def contact(self, path: str, name: str, options: dict):
         from ..couple import RigidContact
 

@@ -15,8 +15,9 @@ folder's paths.
 
 from __future__ import annotations
 
+import contextlib
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 from ..io._atomic import replacing
@@ -33,6 +34,53 @@ class FarmError(RuntimeError):
 def missing_frames(folder: Path, indices: Sequence[int]) -> list[int]:
     """The frames of ``indices`` whose file is not yet in ``folder`` (a resumed render)."""
     return [i for i in indices if not (folder / FRAME_NAME.format(i)).is_file()]
+
+
+@contextlib.contextmanager
+def dask_client(
+    *, workers: int | None = None, scheduler: str | None = None, client=None
+) -> Iterator:
+    """A ``distributed.Client``: ``client`` itself (left open), one connected to the
+    running cluster at ``scheduler``, or one of a local cluster of ``workers``
+    single-threaded processes, closed (with its cluster) at the end.
+
+    Raises :class:`FarmError` without ``distributed`` or when the scheduler cannot be
+    reached.
+    """
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise FarmError(
+            "running on Dask needs the distributed package: pip install 'motes[farm]'"
+        ) from None
+    if client is not None:
+        yield client
+        return
+    cluster = None
+    try:
+        if scheduler is not None:
+            client = Client(scheduler, timeout="10s")
+        else:
+            cluster = LocalCluster(
+                n_workers=workers,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                # the scheduler's small HTTP server (health, metrics) on a free port, not
+                # on 8787, which another cluster on this machine may hold
+                scheduler_kwargs={"dashboard_address": ":0"},
+            )
+            client = Client(cluster)
+    except OSError as error:
+        if cluster is not None:
+            cluster.close()
+        raise FarmError(f"cannot reach the Dask scheduler {scheduler}: {error}") from None
+    try:
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
 
 
 def render_on_dask(
@@ -57,12 +105,8 @@ def render_on_dask(
     count of frames present after each one finishes. ``metadata`` goes into every PNG and, with
     the frame count, into ``folder/frames.json`` once all are there.
     """
-    try:
-        from distributed import Client, LocalCluster, as_completed
-    except ImportError:
-        raise FarmError(
-            "rendering on Dask needs the distributed package: pip install 'motes[farm]'"
-        ) from None
+    from distributed import as_completed
+
     folder.mkdir(parents=True, exist_ok=True)
     todo = missing_frames(folder, indices)
     present = len(indices) - len(todo)
@@ -75,36 +119,13 @@ def render_on_dask(
         "folder": str(folder.resolve()),
         "metadata": metadata,
     }
-    cluster = None
-    own = client is None
-    try:
-        if own and scheduler is not None:
-            client = Client(scheduler, timeout="10s")
-        elif own:
-            cluster = LocalCluster(
-                n_workers=workers,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-                # the scheduler's small HTTP server (health, metrics) on a free port, not
-                # on 8787, which another cluster on this machine may hold
-                scheduler_kwargs={"dashboard_address": ":0"},
-            )
-            client = Client(cluster)
-    except OSError as error:
-        raise FarmError(f"cannot reach the Dask scheduler {scheduler}: {error}") from None
-    try:
-        futures = client.map(draw_frame, todo, **options, pure=False)
+    with dask_client(workers=workers, scheduler=scheduler, client=client) as connected:
+        futures = connected.map(draw_frame, todo, **options, pure=False)
         for future in as_completed(futures):
             future.result()  # a worker's error is raised here, with its message
             present += 1
             if progress is not None:
                 progress(present)
-    finally:
-        if own:
-            client.close()
-        if cluster is not None:
-            cluster.close()
     if metadata:
         record = {**metadata, "frames": len(indices), "prefix": "frame_", "start": indices[0]}
         with replacing(folder / SEQUENCE_METADATA) as tmp:
