@@ -216,10 +216,38 @@ def test_a_shaken_liquid_draws_again_pixel_for_pixel(tmp_path):
         assert_array_equal(a, b)
 
 
-def test_boxes_floating_in_a_liquid_are_refused_by_name(tmp_path):
-    scene = load_scene("floating")
-    with pytest.raises(ReplayError, match=r"'tank' \(FluidBody\)"):
-        Replay(scene, cache_of(scene, tmp_path / "floating.npz"))
+def moved_and_cached(name, move, path):
+    """Scene ``name`` with ``move(scene)`` applied to its bodies (no step), its cache of
+    that one frame, and the frame drawn live."""
+    scene = load_scene(name)
+    move(scene)
+    with CacheWriter(path, scene=name, seed=scene.seed) as writer:
+        writer.add_frame(0.0, scene.entries())
+    return load_cache(path), scene.render((96, 54))
+
+
+@pytest.mark.parametrize("name", ["box_tower", "floating", "ragdoll_stairs"])
+def test_rigid_bodies_and_floating_boxes_draw_where_the_cache_holds_them(tmp_path, name):
+    def move(scene):  # every rigid body somewhere it never starts: up and turned
+        for item in scene.bodies.values():
+            world = getattr(item, "world", None) or item.floating.world
+            turn = np.array([[0.8, -0.6, 0.0], [0.6, 0.8, 0.0], [0.0, 0.0, 1.0]])
+            for rows in (world.position, world.previous):
+                rows[:] = rows @ turn.T + [0.2, 0.5, 0.0]
+
+    cache, live = moved_and_cached(name, move, tmp_path / f"{name}.h5")
+    fresh = load_scene(name)
+    unmoved = fresh.render((96, 54))
+    drawn = Replay(fresh, cache).render(0, (96, 54))
+    assert_array_equal(drawn, live)
+    assert not np.array_equal(drawn, unmoved)  # drawn where the cache holds them
+    cache.close()
+
+
+def test_a_rigid_world_with_trails_is_refused_by_name(tmp_path):
+    scene = load_scene("swept_vs_posteriori")
+    with pytest.raises(ReplayError, match=r"'shots' \(RigidScene\)"):
+        Replay(scene, cache_of(scene, tmp_path / "trails.npz"))
 
 
 def test_a_cache_of_another_cloth_under_the_same_name_is_one_error_line(tmp_path, capsys):

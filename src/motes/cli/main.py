@@ -160,8 +160,8 @@ def _parser() -> argparse.ArgumentParser:
         help="draw a particle cache (.h5, .npz) again with its scene, without simulating",
         description="Draw the frames of a cache that motes run --export CACHE.h5 wrote, "
         "with the look of the scene it records (camera, lights, objects, looks), as "
-        "motes run drew them. Emitter systems, cloth, hair, liquids and flocks can be drawn "
-        "from a cache.",
+        "motes run drew them. Every kind can be drawn from a cache but trails (a flock's "
+        "or a rigid world's path over its last steps).",
         epilog=RENDER_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -619,10 +619,14 @@ def load_cache(path) -> Cache:
             f"{shown} is not a motes cache: not an HDF5 or NumPy .npz file ({err})"
         ) from None
     try:
-        return _read(shown, keys, read, close)
+        # an .npz is read whole here: its file is closed at once
+        cache = _read(shown, keys, read, close if hdf5 else None)
     except BaseException:
         close()
         raise
+    if not hdf5:
+        close()
+    return cache
 
 
 def _read(shown: str, keys: set[str], read, close) -> Cache:

@@ -124,11 +124,9 @@ class FluidBody(Body):
                 look["surface_radius"], sharpness=look["sharpness"], cell_size=look["cell_size"]
             )
         self._shown = None  # a cached frame's particles, drawn instead of the live ones
+        self._shown_boxes = None  # and its floating boxes' transforms
 
-    @property
-    def replayable(self) -> bool:
-        # Floating boxes are rigid bodies: their transforms are not in the liquid's entry.
-        return self.floating is None
+    replayable = True
 
     def show(self, entry: Entry, time: float) -> None:
         if "phase" not in entry.state:
@@ -136,6 +134,12 @@ class FluidBody(Body):
         phases = entry.state["phase"]
         if phases.size and int(phases.max()) >= len(self.colors):
             raise ValueError(f"has phases past this liquid's {len(self.colors)}")
+        if self.floating is not None:
+            boxes = len(self.floating.looks)
+            given = None if entry.transforms is None else len(entry.transforms[0])
+            if given != boxes:
+                raise ValueError(f"holds transforms of {given} boxes; the liquid floats {boxes}")
+            self._shown_boxes = entry.transforms
         self._shown = entry.state
         for shake in self.shakes:  # the tank where it was at that time
             shake.move(time)
@@ -203,7 +207,7 @@ class FluidBody(Body):
     def drawables(self) -> list:
         items = list(self.walls)
         if self.floating is not None:
-            items.extend(self.floating.boxes())
+            items.extend(self.floating.boxes(self._shown_boxes))
         material = Material(specular=self.look["specular"], shininess=48.0)
         for phase, mesh in self._surfaces():
             items.append(geometry.Mesh(mesh, color=tuple(self.colors[phase]), material=material))
@@ -213,14 +217,17 @@ class FluidBody(Body):
         """The particles and, with ``surface`` and a ``"surface"`` look, the surface the
         scene draws: every phase's mesh in one (the spray left out)."""
         state = self.fluid.particle_state()
+        # floating boxes go with the liquid as its bodies' transforms
+        boxes = None if self.floating is None else self.floating.world.transforms()
         if not surface or self.metaballs is None:
-            return Entry(state)
+            return Entry(state, transforms=boxes)
         vertices, faces, count = [np.zeros((0, 3), np.float32)], [np.zeros((0, 3), np.int64)], 0
         for _, mesh in self._surfaces():
             vertices.append(mesh.vertices)
             faces.append(mesh.faces.astype(np.int64) + count)
             count += len(mesh.vertices)
-        return Entry(state, surface=(np.concatenate(vertices), np.concatenate(faces)))
+        surface = (np.concatenate(vertices), np.concatenate(faces))
+        return Entry(state, surface=surface, transforms=boxes)
 
 
 # --- reading the table -------------------------------------------------------------------
@@ -434,8 +441,10 @@ class _Floating:
     def step(self, dt: float) -> None:
         self.pair.step(dt)
 
-    def boxes(self) -> list:
-        centers, rotations = self.world.transforms()
+    def boxes(self, transforms=None) -> list:
+        """The boxes to draw: where the world holds them, or at ``transforms`` (centres,
+        rotations: a cached frame's)."""
+        centers, rotations = self.world.transforms() if transforms is None else transforms
         return [
             geometry.Box(centers[b.index], size, rotation=rotations[b.index], color=tint[:3])
             for b, (size, tint) in zip(self.pair.bodies, self.looks, strict=True)

@@ -1,15 +1,17 @@
 """Drawing a scene again from a particle cache, without simulating it (``motes render``).
 
-A cache written by ``motes run --export CACHE.npz`` records, with the particles of every
+A cache written by ``motes run --export CACHE.h5`` records, with the particles of every
 frame, the scene it came from, the seed and the values set over the scene file. The scene
 is built again from them (its camera, lights, looks, objects and colliders), and each
 cached frame is drawn by the scene's own renderer: systems from the cached states, bodies
 after :meth:`~motes.scene.bodies.Body.show` has put the cached particles where they draw
 from. A frame is therefore the frame ``motes run`` drew, pixel for pixel.
 
-Bodies that draw from more than their particles (the boxes floating in a liquid, a rigid
-world's bodies, a flock's trails) are not yet drawn from a cache: a scene with one is
-refused before any frame is drawn (:class:`ReplayError`).
+Rigid worlds and ragdolls draw from their cached particles (their bodies' transforms
+follow from them), boxes floating in a liquid from the transforms cached with it. Trails
+(a rigid world's or a flock's path over its last steps, which a cache does not hold)
+cannot be drawn from a cache: a scene with one is refused before any frame is drawn
+(:class:`ReplayError`).
 """
 
 from __future__ import annotations
@@ -58,8 +60,8 @@ class Replay:
         if unsupported:
             raise ReplayError(
                 f"scene {scene.name!r} has bodies that cannot be drawn from a cache yet: "
-                f"{', '.join(unsupported)}; emitter systems, cloth, hair, liquids without "
-                "floating boxes and flocks without trails can"
+                f"{', '.join(unsupported)}: a trail is a path over the last steps, which a "
+                "cache does not hold (draw it without trails, or run it again)"
             )
         self._drawn = drawn
 
