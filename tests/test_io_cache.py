@@ -10,7 +10,7 @@ import pytest
 
 import motes as mo
 from motes.io.cache import FORMAT, VERSION, CacheWriter, load_cache
-from motes.state import CORE
+from motes.state import CORE, ParticleState
 from particle_kinds import DT as STEP
 from particle_kinds import KINDS, make_system
 
@@ -281,7 +281,14 @@ def test_newer_version_and_damaged_files(tmp_path):
 # -- every kind --------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("kind", KINDS)
+# The liquid's and the flock's steps compile for most of a minute each on a cold cache;
+# their round trips run in the slow tier (the other kinds check the same contract).
+COMPILE_HEAVY = {"fluid", "flock"}
+
+
+@pytest.mark.parametrize(
+    "kind", [pytest.param(k, marks=pytest.mark.slow) if k in COMPILE_HEAVY else k for k in KINDS]
+)
 @pytest.mark.parametrize("suffix", SUFFIXES)
 def test_round_trip_of_every_kind_equals_the_live_state(tmp_path, kind, suffix):
     make = KINDS[kind][0]
@@ -479,3 +486,27 @@ def test_a_write_that_fails_midway_keeps_the_whole_frames(tmp_path, suffix, monk
         assert loaded.frame_count == 3
         assert len(loaded.array("positions", "fountain")) == loaded.offsets("fountain")[-1]
     assert [p.name for p in tmp_path.iterdir()] == [path.name]
+
+
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_surfaces_of_every_frame_come_back(tmp_path, suffix):
+    from motes.io.entry import Entry
+
+    rng = np.random.default_rng(5)
+    state = ParticleState(np.arange(4), rng.random((3, 4)), np.zeros((3, 4)), np.ones(4))
+    meshes = []
+    for vertices in (5, 0, 12, 3):  # a frame with an empty surface among them
+        faces = rng.integers(0, max(vertices, 1), (2 * vertices, 3))
+        meshes.append((rng.random((vertices, 3)).astype(np.float32), np.array(faces, np.int64)))
+    path = tmp_path / f"run{suffix}"
+    with CacheWriter(path) as cache:
+        for k, mesh in enumerate(meshes):
+            cache.add_frame(k * DT, {"liquid": Entry(state, surface=mesh)})
+        cache.add_frame(4 * DT, {"liquid": Entry(state)})  # no surface: an empty one
+    with load_cache(path) as loaded:
+        for k, (vertices, faces) in enumerate(meshes):
+            got = loaded.entry(k).surface
+            assert_equal = np.testing.assert_array_equal
+            assert_equal(got[0], vertices)
+            assert_equal(got[1], np.asarray(faces).reshape(-1, 3))
+        assert loaded.entry(4).surface[0].shape == (0, 3)

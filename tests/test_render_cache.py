@@ -262,3 +262,21 @@ def test_a_cache_of_another_cloth_under_the_same_name_is_one_error_line(tmp_path
     error = capsys.readouterr().err
     assert "cannot be drawn as body 'cloth': holds 2304 particles; the cloth has 400" in error
     assert error.count("\n") == 1 and not out.exists()
+
+
+def test_another_camera_draws_what_motes_run_draws_with_it(tmp_path, capsys):
+    scene = tmp_path / "puff.toml"
+    scene.write_text(SCENE)
+    cache, live, again = tmp_path / "puff.h5", tmp_path / "live", tmp_path / "again"
+    look = ("--set", "camera.fov=20", "--set", "camera.position=[1, 1.5, 3]")
+    assert cli("run", scene, "--frames", 3, "-o", live, *look, "-q") == 0
+    assert cli("run", scene, "--frames", 3, "--no-render", "--export", cache, "-q") == 0
+    assert cli("render", cache, "-o", again, "--scene", scene, *look, "-q") == 0
+    for a, b in zip(frames(live), frames(again), strict=True):
+        assert_array_equal(a, b)
+    assert len(frames(again)) == 3
+    out = tmp_path / "refused"
+    assert cli("render", cache, "-o", out, "--scene", scene, "--set", "system.puff.capacity=9") == 2
+    error = capsys.readouterr().err
+    assert "--set system.puff.capacity: a cache is drawn as it was simulated" in error
+    assert error.count("\n") == 1 and not out.exists()

@@ -56,6 +56,7 @@ examples:
   motes render rain.h5 -o still.png --frames 119:120 --resolution 1920x1080
   motes render run.h5 -o frames/ --scene my_scene.toml   a cache of a scene file
   motes render rain.h5 -o frames/ --workers 2    on a local Dask cluster (resumable)
+  motes render rain.h5 -o side.mp4 --set 'camera.position=[6, 2, 4]' --set camera.fov=30
 """
 
 
@@ -190,6 +191,16 @@ def _parser() -> argparse.ArgumentParser:
         metavar="NAME_OR_FILE",
         help="the scene to draw with (default: the one the cache records; a scene file's "
         "path is not recorded)",
+    )
+    render.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="draw with another camera, render setting or light: a camera.*, render.* or "
+        "light.* key of the scene, as motes run --set takes it (camera.position=[4, 2, 6], "
+        "camera.fov=30, render.exposure=1.5); repeatable",
     )
     render.add_argument(
         "--overwrite",
@@ -428,6 +439,7 @@ def _render(args) -> int:
     from ..io.cache import load_cache
     from ..io.frames import SequenceWriter, open_writer
     from ..scene import SceneError
+    from ..scene.overrides import parse_assignment
     from ..scene.replay import Replay, ReplayError, load_for
     from .progress import Progress
 
@@ -444,7 +456,8 @@ def _render(args) -> int:
     except (ValueError, OSError) as error:
         raise UserError(str(error)) from None
     try:
-        scene = load_for(cache, args.scene)
+        overrides = dict(parse_assignment(text) for text in args.overrides)
+        scene = load_for(cache, args.scene, overrides)
         replay = Replay(scene, cache)
     except (SceneError, ReplayError) as error:
         raise UserError(str(error)) from None
@@ -467,7 +480,7 @@ def _render(args) -> int:
     scene.renderer(resolution)  # a frame that would not fit in memory fails here
     progress = Progress(len(indices), label=Path(args.cache).name, enabled=not args.quiet)
     if farm:
-        return _render_farm(args, scene, indices, resolution, progress)
+        return _render_farm(args, scene, indices, resolution, progress, overrides)
     progress.begin()
     start = time.perf_counter()
     done = 0
@@ -505,7 +518,7 @@ def _render(args) -> int:
     return 0
 
 
-def _render_farm(args, scene, indices, resolution, progress) -> int:
+def _render_farm(args, scene, indices, resolution, progress, overrides) -> int:
     """``motes render --workers N`` / ``--scheduler ADDRESS``: the frames on Dask."""
     from ..scene import SceneError
     from ..scene.farm import FarmError, render_on_dask
@@ -517,7 +530,7 @@ def _render_farm(args, scene, indices, resolution, progress) -> int:
     try:
         with terminate_as_interrupt():
             drawn = render_on_dask(
-                Path(args.cache), output, list(indices), scene=args.scene,
+                Path(args.cache), output, list(indices), scene=args.scene, overrides=overrides,
                 resolution=resolution, workers=args.workers, scheduler=args.scheduler,
                 metadata=_record(scene), progress=progress.update,
             )  # fmt: skip

@@ -159,6 +159,7 @@ class _Layout:
         self.faces = entry.faces
         self.curves = entry.curves
         self.bodies = None if entry.transforms is None else len(entry.transforms[0])
+        self.surface = entry.surface is not None
         self.attributes = state.names()
         fields = [state.field(a) for a in self.attributes]
         self.units = tuple(f.unit for f in fields)
@@ -168,8 +169,9 @@ class _Layout:
         self.components = tuple(np.shape(f.data)[:-1] for f in fields)
 
     def record(self, name: str, frame: int, entry: Entry) -> dict[str, np.ndarray]:
-        """Record-major copies of the state's attributes, in the fixed dtypes, and of the
-        body transforms (``body_centers``, ``body_rotations``) if the first frame had them."""
+        """Record-major copies of the state's attributes, in the fixed dtypes, of the
+        body transforms (``body_centers``, ``body_rotations``) and of the surface
+        (``surface_vertices``, ``surface_faces``) if the first frame had them."""
         state = entry.state
         out = {}
         if self.bodies is not None:
@@ -181,6 +183,10 @@ class _Layout:
                 )
             out["body_centers"] = np.array(entry.transforms[0], dtype=np.float64)
             out["body_rotations"] = np.array(entry.transforms[1], dtype=np.float64)
+        if self.surface:  # a frame without one has an empty mesh
+            vertices, faces = entry.surface if entry.surface is not None else ((), ())
+            out["surface_vertices"] = np.array(vertices, np.float32).reshape(-1, 3)
+            out["surface_faces"] = np.array(faces, np.int64).reshape(-1, 3)
         for attribute, dtype, components in zip(
             self.attributes, self.dtypes, self.components, strict=True
         ):
@@ -567,18 +573,26 @@ class Cache:
 
     def entry(self, index: int, name: str | None = None) -> Entry:
         """One frame of entry ``name`` as an :class:`~motes.io.entry.Entry`: its
-        :meth:`state` with the faces, curves and body transforms recorded for it."""
+        :meth:`state` with the faces, curves, body transforms and surface recorded for
+        it."""
         name = self._name(name)
         shapes = self._shapes.get(name, {})
-        transforms = None
+        f = self._index(index)
+        transforms = surface = None
         if "body_centers" in shapes:
-            f = self._index(index)
             transforms = (shapes["body_centers"][f], shapes["body_rotations"][f])
+        if "surface_offsets" in shapes:
+            (v0, t0), (v1, t1) = shapes["surface_offsets"][f : f + 2]
+            surface = (
+                _read_only(shapes["surface_vertices"][v0:v1]),
+                _read_only(shapes["surface_faces"][t0:t1]),
+            )
         return Entry(
             self.state(index, name),
             faces=shapes.get("faces"),
             curves=shapes.get("curves"),
             transforms=transforms,
+            surface=surface,
         )
 
     def __repr__(self) -> str:
@@ -728,14 +742,29 @@ def _read_only(values) -> np.ndarray:
 
 
 def _shapes(name: str, get, keys: set, frames: int, first: int, shown: str) -> dict:
-    """The optional ``S/faces``, ``S/curves``, ``S/body_centers`` and ``S/body_rotations``
-    of entry ``name``, checked against the frame count and the first frame's particles."""
+    """The optional ``S/faces``, ``S/curves``, ``S/body_centers``, ``S/body_rotations``
+    and ``S/surface_*`` of entry ``name``, checked against the frame count and the first
+    frame's particles (surface vertices and faces are read lazily from an ``.h5``)."""
     out = {}
-    for key in ("faces", "curves", "body_centers", "body_rotations"):
+    for key in ("faces", "curves", "body_centers", "body_rotations", "surface_offsets"):
         if f"{name}/{key}" in keys:
             out[key] = get(f"{name}/{key}")
     faces, curves = out.get("faces"), out.get("curves")
     bad = []
+    if "surface_offsets" in out:
+        out["surface_vertices"] = get(f"{name}/surface_vertices", lazy=True)
+        out["surface_faces"] = get(f"{name}/surface_faces", lazy=True)
+        ends = out["surface_offsets"]
+        lengths = (len(out["surface_vertices"]), len(out["surface_faces"]))
+        if (
+            ends.shape != (frames + 1, 2)
+            or np.any(ends[0] != 0)
+            or np.any(np.diff(ends, axis=0) < 0)
+            or tuple(ends[-1]) != lengths
+            or out["surface_vertices"].shape[1:] != (3,)
+            or out["surface_faces"].shape[1:] != (3,)
+        ):
+            bad.append("surface_offsets, surface_vertices or surface_faces")
     if faces is not None and (
         faces.ndim != 2
         or faces.shape[1] != 3

@@ -112,6 +112,7 @@ class H5Sink:
         self._tmp: Path | None = None
         self._frames = 0
         self._rows: dict[str, int] = {}
+        self._surface_rows: dict[str, tuple[int, int]] = {}
         # The growing datasets, held open while frames come, and the per-particle ones'
         # chunk streams.
         self._datasets: dict[str, object] = {}
@@ -155,6 +156,22 @@ class H5Sink:
                     group["faces"] = np.asarray(layout.faces, np.int64)
                 if layout.curves is not None:
                     group["curves"] = np.asarray(layout.curves, np.int64)
+                if layout.surface:
+                    group.create_dataset(
+                        "surface_offsets", data=np.zeros((1, 2), np.int64),
+                        maxshape=(None, 2), chunks=(4096, 2),
+                    )  # fmt: skip
+                    for key, dtype in (
+                        ("surface_vertices", np.float32),
+                        ("surface_faces", np.int64),
+                    ):
+                        rows = CHUNK_BYTES // (3 * np.dtype(dtype).itemsize)
+                        dataset = group.create_dataset(
+                            key, (0, 3), dtype, maxshape=(None, 3), chunks=(rows, 3),
+                            **_filters(self.compress),
+                        )  # fmt: skip
+                        self._chunks[f"{name}/{key}"] = _Chunks(dataset, self.compress)
+                    self._surface_rows[name] = (0, 0)
                 if layout.bodies is not None:
                     for key, tail in (("body_centers", (3,)), ("body_rotations", (3, 3))):
                         shape = (layout.bodies, *tail)
@@ -188,6 +205,8 @@ class H5Sink:
                 if key.startswith("body_"):
                     _reserve(dataset, self._frames + 1)
                     dataset[self._frames] = values
+                elif key.startswith("surface_"):
+                    continue  # below
                 elif stop > start:
                     _reserve(dataset, stop)
                     if self.significant_digits is not None and values.dtype.kind == "f":
@@ -196,12 +215,29 @@ class H5Sink:
             _reserve(offsets, self._frames + 2)
             offsets[self._frames + 1] = stop
             self._rows[name] = stop
+            if name in self._surface_rows:
+                self._add_surface(name, arrays["surface_vertices"], arrays["surface_faces"])
         times = datasets["times"]
         _reserve(times, self._frames + 1)
         times[self._frames] = time
         self._frames += 1
         # Encoding goes on while the next frame is simulated; only a few chunks wait.
         self._write_encoded(keep=IN_FLIGHT)
+
+    def _add_surface(self, name: str, vertices: np.ndarray, faces: np.ndarray) -> None:
+        """Append one frame's surface mesh and its end offsets."""
+        ends = self._datasets[f"{name}/surface_offsets"]
+        ends_now = list(self._surface_rows[name])
+        for column, (key, rows) in enumerate(
+            (("surface_vertices", vertices), ("surface_faces", faces))
+        ):
+            if len(rows):
+                _reserve(self._datasets[f"{name}/{key}"], ends_now[column] + len(rows))
+                self._chunks[f"{name}/{key}"].push(rows, self._pool, self._inflight)
+                ends_now[column] += len(rows)
+        _reserve(ends, self._frames + 2)
+        ends[self._frames + 1] = ends_now
+        self._surface_rows[name] = tuple(ends_now)
 
     def _write_encoded(self, keep: int) -> None:
         """Write encoded chunks, oldest first, until at most ``keep`` are in flight."""
@@ -230,11 +266,17 @@ class H5Sink:
                 offsets = group["offsets"]
                 offsets.resize(frames + 1, axis=0)
                 rows = int(offsets[-1])
+                surface = None
+                if "surface_offsets" in group:
+                    group["surface_offsets"].resize(frames + 1, axis=0)
+                    surface = group["surface_offsets"][-1]
                 for key in group:
                     dataset = group[key]
                     if key.startswith("body_"):
                         dataset.resize(frames, axis=0)
-                    elif dataset.maxshape[0] is None and key != "offsets":
+                    elif key in ("surface_vertices", "surface_faces"):
+                        dataset.resize(int(surface[1 if key == "surface_faces" else 0]), axis=0)
+                    elif dataset.maxshape[0] is None and key not in ("offsets", "surface_offsets"):
                         dataset.resize(rows, axis=0)
             root.close()
             os.replace(self._tmp, self.path)

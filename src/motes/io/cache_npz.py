@@ -50,6 +50,7 @@ class NpzSink:
         self._files: dict[str, object] = {}
         self._times: list[float] = []
         self._counts: dict[str, list[int]] = {}
+        self._surface_counts: dict[str, list[tuple[int, int]]] = {}
 
     def start(self, layouts: dict) -> None:
         """Make the spool folder and one raw file per array of the layouts."""
@@ -62,6 +63,9 @@ class NpzSink:
             keys = list(layout.attributes)
             if layout.bodies is not None:
                 keys += ["body_centers", "body_rotations"]
+            if layout.surface:
+                keys += ["surface_vertices", "surface_faces"]
+                self._surface_counts[name] = []
             for key in keys:
                 spool = self._spool / f"{len(self._files)}.raw"
                 self._files[f"{name}/{key}"] = spool.open("wb")  # closed in abort()
@@ -72,6 +76,9 @@ class NpzSink:
             for key, values in arrays.items():
                 self._files[f"{name}/{key}"].write(memoryview(values.reshape(-1).view(np.uint8)))
             self._counts[name].append(len(arrays["ids"]))
+            if name in self._surface_counts:
+                counts = (len(arrays["surface_vertices"]), len(arrays["surface_faces"]))
+                self._surface_counts[name].append(counts)
         self._times.append(time)
 
     def finish(self) -> None:
@@ -106,6 +113,16 @@ class NpzSink:
                         for key, tail in (("body_centers", (3,)), ("body_rotations", (3, 3))):
                             shape = (frames, layout.bodies, *tail)
                             self._copy(archive, name, key, np.dtype(np.float64), shape)
+                    if layout.surface:
+                        ends = np.zeros((frames + 1, 2), dtype=np.int64)
+                        np.cumsum(self._surface_counts[name][:frames], axis=0, out=ends[1:])
+                        put(archive, f"{name}/surface_offsets", ends)
+                        for key, column, dtype in (
+                            ("surface_vertices", 0, np.float32),
+                            ("surface_faces", 1, np.int64),
+                        ):
+                            shape = (int(ends[-1, column]), 3)
+                            self._copy(archive, name, key, np.dtype(dtype), shape)
         finally:
             self.abort()
 

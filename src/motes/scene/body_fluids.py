@@ -125,6 +125,7 @@ class FluidBody(Body):
             )
         self._shown = None  # a cached frame's particles, drawn instead of the live ones
         self._shown_boxes = None  # and its floating boxes' transforms
+        self._surface_memo = None  # (time, shown state, surfaces) of the last surfaces made
 
     replayable = True
 
@@ -189,7 +190,16 @@ class FluidBody(Body):
         return [(drawn, self.sprite_style)]
 
     def _surfaces(self) -> list:
-        """``(phase, mesh)`` of each phase's metaball surface (spray left out)."""
+        """``(phase, mesh)`` of each phase's metaball surface (spray left out); made once
+        per state, as drawing and exporting a frame both ask for it."""
+        memo = self._surface_memo
+        if memo is not None and memo[0] == self.fluid.time and memo[1] is self._shown:
+            return memo[2]
+        out = self._make_surfaces()
+        self._surface_memo = (self.fluid.time, self._shown, out)
+        return out
+
+    def _make_surfaces(self) -> list:
         s = self._drawn()
         if self.metaballs is None or s.count == 0:
             return []

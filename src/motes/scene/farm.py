@@ -89,6 +89,7 @@ def render_on_dask(
     indices: Sequence[int],
     *,
     scene: str | None = None,
+    overrides: dict | None = None,
     resolution: tuple[int, int] | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
@@ -115,6 +116,7 @@ def render_on_dask(
     options = {
         "cache": str(Path(cache).resolve()),
         "scene": scene,
+        "overrides": dict(overrides or {}),
         "resolution": resolution,
         "folder": str(folder.resolve()),
         "metadata": metadata,
@@ -138,7 +140,7 @@ def render_on_dask(
 _replays: dict[tuple, object] = {}
 
 
-def draw_frame(index, *, cache, scene, resolution, folder, metadata) -> str:
+def draw_frame(index, *, cache, scene, resolution, folder, metadata, overrides=None) -> str:
     """Draw cached frame ``index`` into ``folder`` (a task run on a worker)."""
     import numba
 
@@ -147,11 +149,11 @@ def draw_frame(index, *, cache, scene, resolution, folder, metadata) -> str:
 
     numba.set_num_threads(1)  # one thread a worker: workers share the cores
     path = Path(cache)
-    key = (str(path), path.stat().st_mtime_ns, scene)
+    key = (str(path), path.stat().st_mtime_ns, scene, repr(sorted((overrides or {}).items())))
     replay = _replays.get(key)
     if replay is None:
         loaded = load_cache(path)
-        replay = _replays[key] = Replay(load_for(loaded, scene), loaded)
+        replay = _replays[key] = Replay(load_for(loaded, scene, overrides), loaded)
     target = Path(folder) / FRAME_NAME.format(index)
     _save_png(target, replay.render(index, resolution), metadata)
     return str(target)

@@ -90,11 +90,33 @@ class Replay:
             yield self.render(index, resolution)
 
 
-def load_for(cache: Cache, scene=None):
+#: The top-level tables whose keys change how a cache is drawn, not what it holds.
+LOOK_TABLES = ("camera", "render", "light")
+
+
+def look_overrides(overrides: dict) -> dict:
+    """``overrides`` (key path -> value), checked to change only how frames are drawn:
+    keys under ``camera``, ``render`` or ``light``. Raises :class:`ReplayError` naming a
+    key that would change the simulation, which a cache cannot."""
+    from .overrides import split_key
+
+    for key in overrides:
+        if split_key(key)[0] not in LOOK_TABLES:
+            raise ReplayError(
+                f"--set {key}: a cache is drawn as it was simulated; only camera.*, "
+                "render.* and light.* keys change how it is drawn (simulate again with "
+                "motes run --set to change the rest)"
+            )
+    return dict(overrides)
+
+
+def load_for(cache: Cache, scene=None, overrides=None):
     """The scene ``cache`` was made from, loaded with its seed and overrides.
 
     ``scene`` (a built-in name or a scene file) replaces the name the cache records:
-    needed for a scene file, whose path the cache does not hold.
+    needed for a scene file, whose path the cache does not hold. ``overrides`` (key path
+    -> value, :func:`look_overrides`: camera, render and light keys) are set over the
+    cache's own: another camera, exposure or light for the same particles.
     """
     from .scene import load_scene
 
@@ -104,4 +126,5 @@ def load_for(cache: Cache, scene=None):
             "the cache records no scene (it was not written by motes run): give the scene"
         )
     seed = cache.seed
-    return load_scene(source, seed=seed, overrides=cache.overrides)
+    values = {**cache.overrides, **look_overrides(overrides or {})}
+    return load_scene(source, seed=seed, overrides=values)

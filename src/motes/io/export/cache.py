@@ -2,8 +2,9 @@
 
 A thin adapter over :class:`~motes.io.cache.CacheWriter` (the format is described in
 ``docs/cache-format.md``): ``.h5`` (streamed, compressed) or ``.npz`` (spooled to disk,
-written when closed). It records faces, curves and body transforms, not liquid surfaces
-(a surface is rebuilt from the particles).
+written when closed). It records faces, curves, body transforms and the surfaces of
+liquids drawn as surfaces (the scene makes each surface once a frame for drawing and
+exporting alike).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ class CacheExport(ExportWriter):
     """
 
     suffixes = (".h5", ".hdf5", ".npz")
-    surfaces = False
+    surfaces = True
 
     def __init__(self, path, *, significant_digits: int | None = None, **options):
         super().__init__(path, **options)
