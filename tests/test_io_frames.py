@@ -390,13 +390,21 @@ def test_missing_directory_is_reported_at_open(tmp_path):
         open_writer(tmp_path / "nowhere" / "movie.mp4")
 
 
-def test_slow_gif_and_fast_gif_delays():
-    from motes.io.frames import _gif_delays
-
-    assert _gif_delays(4, 10.0) == [100] * 4
-    assert _gif_delays(3, 30.0) == [30, 40, 30]
-    # above 50 fps the browser floor of 2 cs applies
-    assert _gif_delays(3, 100.0) == [20, 20, 20]
+@pytest.mark.parametrize(
+    ("fps", "delays"),
+    [(10.0, [100] * 4), (30.0, [30, 40, 30, 30]), (100.0, [20] * 4)],  # 2 cs at most
+)
+def test_slow_and_fast_gif_delays(tmp_path, fps, delays):
+    path = tmp_path / "t.gif"
+    with open_writer(path, fps=fps) as out:
+        for k in range(4):
+            out.write(make_frame(k))
+    with Image.open(path) as image:
+        got = []
+        for k in range(image.n_frames):
+            image.seek(k)
+            got.append(image.info["duration"])
+    assert got == delays
 
 
 # -- contact sheets, stills --------------------------------------------------------------
@@ -468,3 +476,20 @@ def test_save_image_failure_keeps_the_earlier_file(tmp_path, monkeypatch):
         save_image(path, make_frame(1))
     assert path.read_bytes() == before
     assert leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize("name", ["loop.gif", "movie.mp4"])
+def test_video_writers_hold_no_frames_back(tmp_path, name):
+    import tracemalloc
+
+    yy, xx = np.mgrid[0:180, 0:320]
+    frame = np.stack([xx % 256, yy, (xx + yy) % 256], axis=-1).astype(np.uint8)
+    with open_writer(tmp_path / name, fps=30) as out:
+        out.write(frame)  # ffmpeg started
+        tracemalloc.start()
+        for k in range(1, 40):
+            out.write(np.roll(frame, 4 * k, axis=1))
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    # each frame made here is one frame's bytes; the writer keeps none of them
+    assert peak < 3 * frame.nbytes

@@ -10,28 +10,9 @@ from numpy.testing import assert_array_equal
 from motes.cli.main import main
 from motes.io.frames import read_image
 from motes.scene.wedge import WedgeError, parse_axes, split_values, variants
+from small_scene import PUFF
 
-SCENE = """
-[scene]
-name = "puff"
-duration = 0.5
-fps = 10
-seed = 4
-
-[camera]
-position = [0, 1, 4]
-target = [0, 0.5, 0]
-resolution = [96, 54]
-
-[[system]]
-name = "puff"
-capacity = 400
-  [[system.emitter]]
-  shape = { type = "sphere", radius = 0.2 }
-  rate = { type = "per_second", rate = 600 }
-  speed = { uniform = [0.5, 1.5] }
-  lifetime = 0.4
-"""
+SCENE = PUFF
 
 #: Two speeds by three capacities, one of which the scene refuses.
 AXES = ["system.puff.emitter.0.speed=0.5,2.0", "system.puff.capacity=300,-1,400"]

@@ -92,3 +92,10 @@ def terminate_as_interrupt():
         yield state
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def dask_options(parser: argparse.ArgumentParser, *, workers: str, scheduler: str) -> None:
+    """``--workers N`` or ``--scheduler ADDRESS`` (one of them), with their help texts."""
+    farm = parser.add_mutually_exclusive_group()
+    farm.add_argument("--workers", type=integer_from(1), metavar="N", help=workers)
+    farm.add_argument("--scheduler", metavar="ADDRESS", help=scheduler)

@@ -22,6 +22,7 @@ from pathlib import Path
 
 from .common import (
     UserError,
+    dask_options,
     digits,
     frame_range,
     integer_from,
@@ -207,18 +208,11 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="replace the frames of an earlier run in a non-empty frame folder",
     )
-    farm = render.add_mutually_exclusive_group()
-    farm.add_argument(
-        "--workers",
-        type=integer_from(1),
-        metavar="N",
-        help="draw the frames on a local Dask cluster of N single-threaded processes "
+    dask_options(
+        render,
+        workers="draw the frames on a local Dask cluster of N single-threaded processes "
         "(OUT a folder; frames already in it are kept: an interrupted render resumes)",
-    )
-    farm.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="draw the frames on a running Dask cluster, e.g. tcp://host:8786 (as --workers)",
+        scheduler="draw the frames on a running Dask cluster, e.g. tcp://host:8786 (as --workers)",
     )
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
     from .wedge_command import add_parser as add_wedge

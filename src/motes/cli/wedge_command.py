@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-from .common import UserError, integer_from, resolution, terminate_as_interrupt
+from .common import UserError, dask_options, integer_from, resolution, terminate_as_interrupt
 
 EXAMPLES = """\
 examples:
@@ -64,18 +64,11 @@ def add_parser(sub) -> None:
     wedge.add_argument(
         "--overwrite", action="store_true", help="run again the variants already in DIR"
     )
-    farm = wedge.add_mutually_exclusive_group()
-    farm.add_argument(
-        "--workers",
-        type=integer_from(1),
-        metavar="N",
-        help="run the variants on a local Dask cluster of N single-threaded processes",
-    )
-    farm.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="run the variants on a running Dask cluster, e.g. tcp://host:8786 (its workers "
-        "need motes and must see DIR)",
+    dask_options(
+        wedge,
+        workers="run the variants on a local Dask cluster of N single-threaded processes",
+        scheduler="run the variants on a running Dask cluster, e.g. tcp://host:8786 (its "
+        "workers need motes and must see DIR)",
     )
     wedge.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
 

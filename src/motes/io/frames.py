@@ -8,7 +8,8 @@ path                 writer
 ===================  ===================================================================
 ``movie.mp4``        :class:`Mp4Writer`: H.264 (libx264, yuv420p, BT.709), via the
                      ffmpeg binary bundled with ``imageio-ffmpeg``
-``loop.gif``         :class:`GifWriter`: Pillow, an adaptive palette per frame, loops
+``loop.gif``         :class:`GifWriter`: an adaptive palette per frame, loops, via the
+                     same ffmpeg
 ``still.png``        :class:`PngWriter`: a single image, the *last* frame written
 ``frames/``          :class:`SequenceWriter`: ``frame_00000.png``, ``frame_00001.png``, ...
 ===================  ===================================================================
@@ -23,7 +24,7 @@ simulation, an error in the writer) and still leave usable output:
   complete, so a reader never sees a half-written file;
 - closing a writer, which a ``with`` block does also while an exception propagates,
   finishes the file with every frame written so far: the MP4 gets its index (the
-  ``moov`` atom) and is playable, the GIF is encoded, each PNG of a sequence was already
+  ``moov`` atom) and is playable, the GIF its trailer, each PNG of a sequence was already
   complete when the next frame began;
 - a writer closed before its first frame writes nothing, so an earlier file at the same
   path survives an interrupted run that never got to draw;
@@ -66,6 +67,7 @@ import contextlib
 import json
 import math
 import os
+import shutil
 import subprocess
 import tempfile
 from abc import ABC, abstractmethod
@@ -320,181 +322,49 @@ class SequenceWriter(FrameWriter):
             Path(tmp).write_text(json.dumps(record, indent=2) + "\n")
 
 
-def _gif_delays(count: int, fps: float) -> list[int]:
-    """Per-frame delays [ms] for ``count`` frames at ``fps``.
-
-    GIF stores delays in centiseconds. Rounding each frame's delay alone would drift
-    (30 fps -> 3 cs = 33.3 fps); rounding the cumulative time keeps the average exact
-    (3, 3, 4, 3, 3, 4, ... cs). Browsers show delays below 2 cs as 10 cs, so delays are
-    at least 2 cs: above 50 fps a GIF plays slower than real time.
-    """
-    ends = np.rint(np.arange(1, count + 1) * (100.0 / fps))
-    delays = np.diff(ends, prepend=0.0)
-    return [int(10 * max(d, 2.0)) for d in delays]
+#: The fastest a GIF plays in real time [1/s]. GIF stores delays in whole centiseconds,
+#: and browsers show delays below 2 cs as 10 cs: a faster GIF gets 2 cs a frame and plays
+#: slower than real time. ffmpeg rounds the cumulative time to centiseconds, so 30 fps
+#: gives 3, 4, 3, 3, 4, 3, ... cs, exact on average.
+GIF_MAX_FPS = 50.0
 
 
-class GifWriter(FrameWriter):
-    """An animated GIF that loops forever, encoded with Pillow when the writer closes.
+class _FfmpegWriter(FrameWriter):
+    """A file encoded by ffmpeg (the binary bundled with ``imageio-ffmpeg``), raw RGB
+    frames streamed to it as they are written: nothing is held back but the frame being
+    handed over, whatever the frame count.
 
-    Each frame is reduced to its own adaptive 256-colour palette (median cut,
-    Floyd-Steinberg dithering) as it is written and kept in that form (one byte per
-    pixel) until :meth:`close` encodes the file. Memory therefore grows with the frame
-    count: width x height bytes per frame. Pillow merges consecutive identical frames into
-    one (adding their delays), so the file may hold fewer frames than were written; it
-    plays the same.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        Output file, ending in ``.gif``.
-    fps : float
-        Frames per second (> 0). GIF delays are whole centiseconds; see the timing note
-        in :func:`_gif_delays` (at most 50 fps play in real time).
-    metadata : dict of str, optional
-        Stored as a JSON object in the GIF comment.
-    """
-
-    def __init__(self, path, *, fps: float = 30.0, metadata: dict[str, str] | None = None):
-        super().__init__(_check_file_path(path, ".gif"))
-        self.fps = check.positive("fps", fps)
-        self.metadata = _check_metadata(metadata)
-        self._frames: list = []
-
-    def _write(self, frame: np.ndarray) -> None:
-        from PIL import Image
-
-        self._frames.append(Image.fromarray(frame).quantize(256))
-
-    def _close(self) -> None:
-        frames, self._frames = self._frames, []
-        if not frames:
-            return
-        with replacing(self.path) as tmp:
-            frames[0].save(
-                tmp,
-                format="GIF",
-                save_all=True,
-                append_images=frames[1:],
-                duration=_gif_delays(len(frames), self.fps),
-                loop=0,
-                optimize=True,
-                **({"comment": json.dumps(self.metadata)} if self.metadata else {}),
-            )
-
-
-class Mp4Writer(FrameWriter):
-    """An H.264 MP4 video, frames streamed to ffmpeg as they are written.
-
-    ffmpeg (the binary bundled with ``imageio-ffmpeg``) encodes with libx264 into
-    ``yuv420p`` with BT.709 colour, tagged as such, so browsers and players show the
-    colours as written. The file is written under a temporary name; :meth:`close` ends the
-    stream, waits for ffmpeg to finish the file and moves it into place.
-
-    Odd sizes: yuv420p needs an even width and height, so a frame with an odd dimension
-    is padded by one black column on the right and/or one black row at the bottom.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        Output file, ending in ``.mp4``.
-    fps : float
-        Frames per second (> 0).
-    crf : int
-        x264 constant rate factor, 0 (lossless) to 51 (worst); 18 is visually lossless
-        for most material, each +6 about halves the size.
-    preset : str
-        x264 speed/size trade-off, ``"ultrafast"`` ... ``"veryslow"``.
-    metadata : dict of str, optional
-        Stored as a JSON object in the MP4 ``comment`` tag.
-
-    Notes
-    -----
-    The encoder is driven with :func:`subprocess.Popen` and ``imageio_ffmpeg.get_ffmpeg_exe``
+    ffmpeg is driven with :func:`subprocess.Popen` and ``imageio_ffmpeg.get_ffmpeg_exe``
     rather than ``imageio_ffmpeg.write_frames``: that generator kills ffmpeg when a
-    ``KeyboardInterrupt`` reaches it mid-frame, which would leave a file without its index,
+    ``KeyboardInterrupt`` reaches it mid-frame, which would leave a file without its end,
     and it starts ffmpeg through ``preexec_fn``, which is unsafe in a process with threads
     (Numba's). Here ffmpeg starts in a new session (``start_new_session``) and a frame is
-    never interrupted halfway (see the module notes).
+    never interrupted halfway (see the module notes). Subclasses give the command.
     """
 
-    PRESETS = (
-        "ultrafast",
-        "superfast",
-        "veryfast",
-        "faster",
-        "fast",
-        "medium",
-        "slow",
-        "slower",
-        "veryslow",
-    )
-
-    def __init__(
-        self,
-        path,
-        *,
-        fps: float = 30.0,
-        crf: int = 18,
-        preset: str = "medium",
-        metadata: dict[str, str] | None = None,
-    ):
-        super().__init__(_check_file_path(path, ".mp4"))
+    def __init__(self, path: Path, *, fps: float, metadata):
+        super().__init__(path)
         self.metadata = _check_metadata(metadata)
         self.fps = check.positive("fps", fps)
-        self.crf = check.integer("crf", crf, low=0)
-        if self.crf > 51:
-            raise ValueError(f"crf must be <= 51, got {self.crf}")
-        self.preset = check.choice("preset", preset, self.PRESETS)
         self._process: subprocess.Popen | None = None
         self._tmp: Path | None = None
         self._log = None
         self._failure: str | None = None
 
     def _command(self, width: int, height: int, output: Path) -> list[str]:
+        raise NotImplementedError
+
+    def _input(self, width: int, height: int, fps: float | None = None) -> list[str]:
+        """ffmpeg's arguments up to its input: raw RGB frames on stdin at ``fps``
+        (default: the writer's)."""
         import imageio_ffmpeg
 
-        rate = Fraction(self.fps).limit_denominator(100_000)
-        filters = [
-            # pad to even dimensions (a no-op when they already are)
-            "pad=ceil(iw/2)*2:ceil(ih/2)*2",
-            "scale=out_color_matrix=bt709:out_range=tv",
-            "format=yuv420p",
-            "setparams=color_primaries=bt709:color_trc=iec61966-2-1:colorspace=bt709:range=tv",
-        ]
+        rate = Fraction(self.fps if fps is None else fps).limit_denominator(100_000)
         return [
-            imageio_ffmpeg.get_ffmpeg_exe(),
-            "-hide_banner",
-            "-nostats",
-            "-loglevel",
-            "error",
-            "-f",
-            "rawvideo",
-            "-pix_fmt",
-            "rgb24",
-            "-s",
-            f"{width}x{height}",
-            "-framerate",
-            str(rate),
-            "-i",
-            "pipe:0",
-            "-an",
-            "-vf",
-            ",".join(filters),
-            "-c:v",
-            "libx264",
-            "-preset",
-            self.preset,
-            "-crf",
-            str(self.crf),
-            # index at the front, so browsers can play before the whole file has loaded
-            *(["-metadata", f"comment={json.dumps(self.metadata)}"] if self.metadata else []),
-            "-movflags",
-            "+faststart",
-            "-f",
-            "mp4",
-            "-y",
-            str(output),
-        ]
+            imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-nostats", "-loglevel", "error",
+            "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{width}x{height}",
+            "-framerate", str(rate), "-i", "pipe:0", "-an",
+        ]  # fmt: skip
 
     def _start(self, width: int, height: int) -> None:
         self._tmp = temporary_sibling(self.path)
@@ -574,10 +444,165 @@ class Mp4Writer(FrameWriter):
             self._cleanup()
             raise RuntimeError(f"ffmpeg failed to write {self.path}: {message}")
         try:
+            self._finish_file(self._tmp)
             os.replace(self._tmp, self.path)
             self._tmp = None
         finally:
             self._cleanup()
+
+    def _finish_file(self, tmp: Path) -> None:
+        """Complete the file ffmpeg wrote at ``tmp`` before it is moved into place."""
+        return None
+
+
+class GifWriter(_FfmpegWriter):
+    """An animated GIF that loops forever, frames streamed to ffmpeg as they are written.
+
+    Each frame gets its own adaptive palette of up to 256 colours (ffmpeg's
+    ``palettegen`` with ``stats_mode=single``, applied by ``paletteuse`` with
+    Floyd-Steinberg dithering): memory stays flat whatever the frame count. ffmpeg stores
+    only the part of a frame that changed, so a still scene stays small. The metadata goes
+    into a GIF comment extension, added before the first frame when ffmpeg has finished.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file, ending in ``.gif``.
+    fps : float
+        Frames per second (> 0). GIF delays are whole centiseconds; at most
+        :data:`GIF_MAX_FPS` (50) play in real time.
+    metadata : dict of str, optional
+        Stored as a JSON object in the GIF comment.
+    """
+
+    def __init__(self, path, *, fps: float = 30.0, metadata: dict[str, str] | None = None):
+        super().__init__(_check_file_path(path, ".gif"), fps=fps, metadata=metadata)
+
+    def _command(self, width: int, height: int, output: Path) -> list[str]:
+        palette = (
+            "split[frames][again];[again]palettegen=stats_mode=single[palette];"
+            "[frames][palette]paletteuse=new=1:dither=floyd_steinberg"
+        )
+        fps = min(self.fps, GIF_MAX_FPS)
+        return [*self._input(width, height, fps), "-vf", palette, "-loop", "0", "-f", "gif", "-y",
+                str(output)]  # fmt: skip
+
+    def _finish_file(self, tmp: Path) -> None:
+        if self.metadata:
+            _add_gif_comment(tmp, json.dumps(self.metadata))
+
+
+def _add_gif_comment(path: Path, text: str) -> None:
+    """Insert a comment extension holding ``text`` (UTF-8) into the GIF at ``path``.
+
+    GIF89a (section 24) places extensions between the logical screen (the 13-byte header
+    and screen descriptor, then the global colour table if its flag is set) and the
+    first image; a comment is ``0x21 0xFE``, data sub-blocks of at most 255 bytes each
+    preceded by its length, and a zero-length terminator. The file is copied once, in
+    blocks, under a temporary name.
+    """
+    data = text.encode()
+    blocks = b"".join(
+        bytes([len(data[k : k + 255])]) + data[k : k + 255] for k in range(0, len(data), 255)
+    )
+    comment = b"\x21\xfe" + blocks + b"\x00"
+    with open(path, "rb") as source:
+        head = source.read(13)
+        if len(head) < 13 or head[:6] != b"GIF89a":
+            raise RuntimeError(f"ffmpeg did not write a GIF89a file at {path}")
+        packed = head[10]
+        table = 3 * 2 ** ((packed & 0x07) + 1) if packed & 0x80 else 0
+        head += source.read(table)
+        with replacing(path) as tmp, open(tmp, "wb") as target:
+            target.write(head + comment)
+            shutil.copyfileobj(source, target, 1 << 20)
+
+
+class Mp4Writer(_FfmpegWriter):
+    """An H.264 MP4 video, frames streamed to ffmpeg as they are written.
+
+    ffmpeg (the binary bundled with ``imageio-ffmpeg``) encodes with libx264 into
+    ``yuv420p`` with BT.709 colour, tagged as such, so browsers and players show the
+    colours as written. The file is written under a temporary name; :meth:`close` ends the
+    stream, waits for ffmpeg to finish the file and moves it into place.
+
+    Odd sizes: yuv420p needs an even width and height, so a frame with an odd dimension
+    is padded by one black column on the right and/or one black row at the bottom.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file, ending in ``.mp4``.
+    fps : float
+        Frames per second (> 0).
+    crf : int
+        x264 constant rate factor, 0 (lossless) to 51 (worst); 18 is visually lossless
+        for most material, each +6 about halves the size.
+    preset : str
+        x264 speed/size trade-off, ``"ultrafast"`` ... ``"veryslow"``.
+    metadata : dict of str, optional
+        Stored as a JSON object in the MP4 ``comment`` tag.
+
+    Notes
+    -----
+    The encoder is driven as :class:`_FfmpegWriter` says: in a session of its own, a
+    frame never interrupted halfway.
+    """
+
+    PRESETS = (
+        "ultrafast",
+        "superfast",
+        "veryfast",
+        "faster",
+        "fast",
+        "medium",
+        "slow",
+        "slower",
+        "veryslow",
+    )
+
+    def __init__(
+        self,
+        path,
+        *,
+        fps: float = 30.0,
+        crf: int = 18,
+        preset: str = "medium",
+        metadata: dict[str, str] | None = None,
+    ):
+        super().__init__(_check_file_path(path, ".mp4"), fps=fps, metadata=metadata)
+        self.crf = check.integer("crf", crf, low=0)
+        if self.crf > 51:
+            raise ValueError(f"crf must be <= 51, got {self.crf}")
+        self.preset = check.choice("preset", preset, self.PRESETS)
+
+    def _command(self, width: int, height: int, output: Path) -> list[str]:
+        filters = [
+            # pad to even dimensions (a no-op when they already are)
+            "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+            "scale=out_color_matrix=bt709:out_range=tv",
+            "format=yuv420p",
+            "setparams=color_primaries=bt709:color_trc=iec61966-2-1:colorspace=bt709:range=tv",
+        ]
+        return [
+            *self._input(width, height),
+            "-vf",
+            ",".join(filters),
+            "-c:v",
+            "libx264",
+            "-preset",
+            self.preset,
+            "-crf",
+            str(self.crf),
+            # index at the front, so browsers can play before the whole file has loaded
+            *(["-metadata", f"comment={json.dumps(self.metadata)}"] if self.metadata else []),
+            "-movflags",
+            "+faststart",
+            "-f",
+            "mp4",
+            "-y",
+            str(output),
+        ]
 
 
 def open_writer(
