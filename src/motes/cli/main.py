@@ -36,6 +36,7 @@ examples:
   motes run fire                          render the built-in fire to fire.mp4
   motes run fire -o fire.gif --frames 60  60 frames to an animated GIF
   motes run smoke -o still.png            the last frame as a PNG
+  motes run fire -o fire.exr --frame 90   frame 90 in linear light with depth (OpenEXR)
   motes run my_scene.toml -o frames/      a numbered PNG sequence in frames/
   motes run rain --resolution 640x360 --seed 3 --export rain.h5
   motes run cloth_drop --no-render --export cloth.usdc    OpenUSD for Blender, Houdini
@@ -82,11 +83,25 @@ def _parser() -> argparse.ArgumentParser:
         help="OUT.mp4, OUT.gif, OUT.png (last frame) or a directory for PNG "
         "frames (default: NAME.mp4)",
     )
-    run.add_argument(
+    length = run.add_mutually_exclusive_group()
+    length.add_argument(
         "--frames",
         type=integer_from(1),
         metavar="N",
         help="number of frames (default: the scene's duration × fps)",
+    )
+    length.add_argument(
+        "--frame",
+        type=integer_from(1),
+        metavar="N",
+        help="a still of frame N (counted from 1), with -o NAME.png or NAME.exr: the "
+        "frames before it are simulated, not drawn",
+    )
+    length.add_argument(
+        "--time",
+        type=positive,
+        metavar="T",
+        help="a still of the frame at T seconds (the nearest), as --frame",
     )
     run.add_argument(
         "--seed", type=integer_from(0), metavar="S", help="random seed (overrides the scene)"
@@ -438,8 +453,9 @@ def _render(args) -> int:
     from .progress import Progress
 
     output = Path(args.output)
-    if output.suffix.lower() not in ("", ".mp4", ".gif", ".png"):
-        raise UserError(f"-o must end in .mp4, .gif or .png, or be a directory; got {output}")
+    if output.suffix.lower() not in OUTPUTS:
+        raise UserError(f"-o must end in .mp4, .gif, .png or .exr, or be a directory; got {output}")
+    _check_exr(output)
     if output.parent != Path() and not output.parent.is_dir():
         raise UserError(f"output directory does not exist: {output.parent}")
     _check_writable(output)
@@ -463,9 +479,9 @@ def _render(args) -> int:
     if not indices:
         raise UserError(f"--frames selects no frame of the {cache.frame_count} in the cache")
     resolution = args.resolution or scene.camera.resolution
-    still = output.suffix.lower() == ".png"
+    still = output.suffix.lower() in (".png", ".exr")
     if still:
-        indices = indices[-1:]  # a .png keeps only the last frame
+        indices = indices[-1:]  # a .png or .exr keeps only the last frame
     farm = args.workers is not None or args.scheduler is not None
     if farm and output.suffix != "":
         raise UserError(f"--workers and --scheduler write a folder of PNG frames; got -o {output}")
@@ -475,6 +491,12 @@ def _render(args) -> int:
     progress = Progress(len(indices), label=Path(args.cache).name, enabled=not args.quiet)
     if farm:
         return _render_farm(args, scene, indices, resolution, progress, overrides)
+    if output.suffix.lower() == ".exr":
+        replay.place(indices[-1])
+        _write_exr(output, scene.renderer(resolution), scene, replay.states(indices[-1]))
+        if not args.quiet:
+            print(f"wrote {output} (cached frame {indices[-1]})")
+        return 0
     progress.begin()
     start = time.perf_counter()
     done = 0
@@ -551,6 +573,29 @@ def _render_farm(args, scene, indices, resolution, progress, overrides) -> int:
     return 0
 
 
+#: What -o may end in ("": a folder of PNG frames).
+OUTPUTS = ("", ".mp4", ".gif", ".png", ".exr")
+
+
+def _check_exr(output: Path | None) -> None:
+    """An ``.exr`` output needs the OpenEXR package: say so before anything runs."""
+    if output is not None and output.suffix.lower() == ".exr":
+        from ..io.exr import ExrUnavailable, check_available
+
+        try:
+            check_available()
+        except ExrUnavailable as error:
+            raise UserError(str(error)) from None
+
+
+def _write_exr(output: Path, renderer, scene, states) -> None:
+    """The frame now as OpenEXR: linear colour times the exposure, and the depth."""
+    from ..io.exr import write_exr
+
+    frame = renderer.render_scene_hdr(scene, states)
+    write_exr(output, frame.color * renderer.exposure, frame.depth, _record(scene))
+
+
 def _run(args) -> int:
     from ..finite import NonFiniteError
     from ..io.frames import open_writer
@@ -570,8 +615,14 @@ def _run(args) -> int:
     frames = args.frames or scene.frame_count
     output = None if args.no_render else Path(args.output or _default_output(scene.name))
     resolution = args.resolution or scene.camera.resolution
-    if output is not None and output.suffix.lower() not in ("", ".mp4", ".gif", ".png"):
-        raise UserError(f"-o must end in .mp4, .gif or .png, or be a directory; got {output}")
+    if output is not None and output.suffix.lower() not in OUTPUTS:
+        raise UserError(f"-o must end in .mp4, .gif, .png or .exr, or be a directory; got {output}")
+    still = output is not None and output.suffix.lower() in (".png", ".exr")
+    if args.frame is not None or args.time is not None:
+        if not still:
+            raise UserError("--frame and --time draw one frame: give -o NAME.png or NAME.exr")
+        frames = args.frame or max(1, round(args.time * scene.fps))
+    _check_exr(output)
     if output is not None and output.parent != Path() and not output.parent.is_dir():
         raise UserError(f"output directory does not exist: {output.parent}")
     _check_writable(output)
@@ -613,21 +664,23 @@ def _run(args) -> int:
     # Ctrl-C, an ffmpeg error): each keeps the frames finished so far.
     with contextlib.ExitStack() as outputs:
         signals = outputs.enter_context(terminate_as_interrupt())
+        exr = output is not None and output.suffix.lower() == ".exr"
         writer = (
             outputs.enter_context(open_writer(output, fps=scene.fps, metadata=_record(scene)))
-            if output
+            if output and not exr
             else None
         )
         if exporter is not None:
             outputs.enter_context(exporter)
         outputs.callback(progress.close)
         try:
-            # A .png keeps only the last frame: render just that one.
-            still = output is not None and output.suffix.lower() == ".png"
+            # A .png or .exr keeps only the last frame: render just that one.
             for index in range(frames):
                 scene.advance()
                 if writer is not None and (not still or index == frames - 1):
                     writer.write(scene.render(resolution))
+                if exr and index == frames - 1:
+                    _write_exr(output, scene.renderer(resolution), scene, None)
                 if exporter is not None:
                     entries = scene.entries(surfaces=exporter.surfaces)
                     exporter.write_frame(scene.frame, scene.time, entries)

@@ -50,8 +50,23 @@ class SceneRenderer:
         return self.renderer.resolution
 
     def render_scene(self, scene, states=None) -> np.ndarray:
-        """The scene's frame now; ``states`` (system name -> ParticleState) draws those
-        particles in place of the live systems' (a cached frame: ``motes render``)."""
+        """The scene's frame now, as a (height, width, 3) uint8 sRGB image; ``states``
+        (system name -> ParticleState) draws those particles in place of the live
+        systems' (a cached frame: ``motes render``)."""
+        return self.renderer.render(*self._contents(scene, states))
+
+    def render_scene_hdr(self, scene, states=None):
+        """The scene's frame now in linear light, before exposure and tone mapping: a
+        :class:`~motes.render.frame.Frame` (``color`` and ``depth``)."""
+        return self.renderer.render_hdr(*self._contents(scene, states))
+
+    @property
+    def exposure(self) -> float:
+        """The scene's exposure (a factor on linear radiance)."""
+        return self.renderer.exposure
+
+    def _contents(self, scene, states) -> tuple[list, list]:
+        """The particle systems and the objects the renderer draws for the scene now."""
         if scene.camera_path is not None:
             self.renderer.camera = scene.camera_at(scene.time, self.resolution)
         particles = scene.systems if states is None else states
@@ -64,7 +79,7 @@ class SceneRenderer:
             with _surface_of(f"body.{key_name(name)}", scene):
                 systems.extend(body.particles())
                 objects.extend(body.drawables())
-        return self.renderer.render(systems, objects)
+        return systems, objects
 
 
 @contextmanager

@@ -71,10 +71,20 @@ class Replay:
 
     def render(self, index: int, resolution=None) -> np.ndarray:
         """Cached frame ``index`` as a (height, width, 3) uint8 sRGB image."""
+        self.place(index)
+        renderer = self.scene.renderer(resolution)
+        return renderer.render_scene(self.scene, self.states(index))
+
+    def states(self, index: int) -> dict:
+        """The drawn systems' particles of cached frame ``index``, by name."""
+        return {name: self.cache.state(index, name) for name in self._drawn}
+
+    def place(self, index: int) -> None:
+        """Put the scene at cached frame ``index``: its frame number, and every body
+        showing the cached particles (:meth:`~motes.scene.bodies.Body.show`)."""
         scene, cache = self.scene, self.cache
         scene.frame = self.frame_of(index)
         time = float(cache.times[index])
-        states = {name: cache.state(index, name) for name in self._drawn}
         for name, body in scene.bodies.items():
             try:
                 body.show(cache.entry(index, name), time)
@@ -82,7 +92,6 @@ class Replay:
                 raise ReplayError(
                     f"frame {index} of the cache cannot be drawn as body {name!r}: {error}"
                 ) from None
-        return scene.renderer(resolution).render_scene(scene, states)
 
     def frames(self, indices=None, resolution=None) -> Iterator[np.ndarray]:
         """Draw cached frames ``indices`` (default: all) in order."""
