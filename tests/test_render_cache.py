@@ -9,7 +9,7 @@ from numpy.testing import assert_array_equal
 from motes.cli.main import main
 from motes.io.cache import CacheWriter, load_cache
 from motes.io.frames import read_image
-from motes.scene import load_scene
+from motes.scene import SceneError, load_scene
 from motes.scene.replay import Replay, ReplayError
 from motes.state import ParticleState
 from small_scene import PUFF
@@ -261,3 +261,23 @@ def test_another_camera_draws_what_motes_run_draws_with_it(tmp_path, capsys):
     error = capsys.readouterr().err
     assert "--set system.puff.capacity: a cache is drawn as it was simulated" in error
     assert error.count("\n") == 1 and not out.exists()
+
+
+def test_a_pre_rolled_scene_starts_mid_flight_and_draws_again(tmp_path):
+    rolled = SCENE.replace("seed = 4\n", "seed = 4\npreroll = 0.3\n")
+    scene = load_scene(rolled)
+    plain = load_scene(SCENE)
+    scene.advance()
+    for _ in range(4):  # 0.3 s at 10 fps, then the first frame
+        plain.advance()
+    assert (scene.frame, scene.time) == (1, 0.1)  # the shot's clock starts after it
+    assert_array_equal(scene.systems["puff"]["position"], plain.systems["puff"]["position"])
+    path = tmp_path / "rolled.toml"
+    path.write_text(rolled)
+    cache, live, again = tmp_path / "r.h5", tmp_path / "live", tmp_path / "again"
+    assert cli("run", path, "--frames", 2, "-o", live, "--export", cache, "-q") == 0
+    assert cli("render", cache, "-o", again, "--scene", path, "-q") == 0
+    for a, b in zip(frames(live), frames(again), strict=True):
+        assert_array_equal(a, b)
+    with pytest.raises(SceneError, match=r"scene.preroll: must be"):
+        load_scene(SCENE.replace("seed = 4\n", "seed = 4\npreroll = -1\n"))

@@ -84,7 +84,7 @@ class Replay:
         showing the cached particles (:meth:`~motes.scene.bodies.Body.show`)."""
         scene, cache = self.scene, self.cache
         scene.frame = self.frame_of(index)
-        time = float(cache.times[index])
+        time = float(cache.times[index]) + scene.preroll  # the bodies' own clocks
         for name, body in scene.bodies.items():
             try:
                 body.show(cache.entry(index, name), time)

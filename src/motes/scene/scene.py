@@ -96,6 +96,7 @@ class Scene:
         camera_path=None,
         check_finite=False,
         overrides=None,
+        preroll=0.0,
     ):
         self.name = name
         self.description = description
@@ -116,6 +117,9 @@ class Scene:
         children = {id(c) for s in systems.values() for c in s.children}
         self.roots = [s for s in systems.values() if id(s) not in children]
         self.frame = 0
+        #: Seconds simulated before the first frame (rain already falling), whole frames.
+        self.preroll = round(preroll * fps) / fps
+        self._prerolled = self.preroll == 0
         self._renderers: dict[tuple[int, int], object] = {}
 
     @property
@@ -125,7 +129,8 @@ class Scene:
 
     @property
     def time(self) -> float:
-        """Simulated time [s] at the current frame."""
+        """Time of the current frame in the shot [s]: 0 at the start of the first frame,
+        after the pre-roll (the systems' and bodies' own clocks run ``preroll`` ahead)."""
         return self.frame / self.fps
 
     def advance(self) -> None:
@@ -136,18 +141,12 @@ class Scene:
         parameters do not suit the step. A cloth does not: it stops and is drawn as
         diverged.
         """
-        dt = 1.0 / (self.fps * self.substeps)
+        if not self._prerolled:
+            self._prerolled = True
+            for _ in range(round(self.preroll * self.fps)):
+                self._step(self.frame)
         frame = self.frame + 1
-        for _ in range(self.substeps):
-            for system in self.roots:
-                system.step(dt)
-            for name, body in self.bodies.items():
-                try:
-                    body.step(dt)
-                except (SolverError, FloatingPointError) as error:
-                    raise SceneError(
-                        f"body.{key_name(name)}", f"diverged in frame {frame}: {error}"
-                    ) from error
+        self._step(frame)
         if self.check_finite:  # every attribute, naming the particle
             self.frame = frame
             self._check_finite()
@@ -159,6 +158,21 @@ class Scene:
                     "force too strong, or a step too long, for the integrator)",
                 )
         self.frame = frame
+
+    def _step(self, frame: int) -> None:
+        """One frame's substeps of every system and body (``frame`` names it in errors:
+        0 during the pre-roll)."""
+        dt = 1.0 / (self.fps * self.substeps)
+        for _ in range(self.substeps):
+            for system in self.roots:
+                system.step(dt)
+            for name, body in self.bodies.items():
+                try:
+                    body.step(dt)
+                except (SolverError, FloatingPointError) as error:
+                    raise SceneError(
+                        f"body.{key_name(name)}", f"diverged in frame {frame}: {error}"
+                    ) from error
 
     def _check_finite(self) -> None:
         """Raise :class:`~motes.finite.NonFiniteError` at the first NaN or infinity."""
@@ -520,6 +534,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
     duration = head.get("duration", positive(), 4.0)
     fps = head.get("fps", number(1.0, 1000.0), 30.0)
     substeps = head.get("substeps", integer(1, 1000), 1)
+    preroll = head.get("preroll", number(0.0, 3600.0), 0.0)
     seed = head.get("seed", integer(0), 0)
     if seed_override is not None:
         seed = integer(0)(seed_override, "seed")
@@ -630,6 +645,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         bodies=bodies,
         source=origin,
         camera_path=camera_path,
+        preroll=preroll,
     )
 
 
