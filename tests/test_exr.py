@@ -97,3 +97,92 @@ def test_mistakes_are_one_line(tmp_path, capsys, monkeypatch):
     assert cli("run", scene, "-o", tmp_path / "x.exr") == 2
     err = capsys.readouterr().err
     assert "pip install 'motes[exr]'" in err and err.count("\n") == 1
+
+
+#: Alpha-blended smoke over a ground, under a sky gradient.
+ALPHA_LOOK = '  color = [0.8, 0.6, 0.4, 0.5]\n\n  [system.render]\n  blend = "alpha"\n'
+SMOKE = (
+    SCENE.replace("  lifetime = 0.4\n", "  lifetime = 0.4\n" + ALPHA_LOOK)
+    .replace("exposure = 1.5\n", 'exposure = 1.5\nbackground = ["#304060", "#a0b0c0"]\n')
+    .replace("radius = 0.2 }\n", "radius = 0.2 }\n  position = [0.0, 1.0, 0.0]\n")  # the sky
+)
+
+
+def test_a_transparent_frame_composites_back_to_the_frame(tmp_path):
+    scene = load_scene(SMOKE)
+    for _ in range(3):
+        scene.advance()
+    renderer = scene.renderer((96, 54))
+    plain = renderer.render_scene_hdr(scene)
+    clear = renderer.render_scene_hdr(scene, transparent=True)
+    alpha = clear.alpha
+    assert alpha.shape == (54, 96) and alpha.min() >= 0 and alpha.max() <= 1
+    ground = np.isfinite(clear.depth)
+    assert ground.any() and (alpha[ground] == 1).all()
+    sky = ~ground & (alpha == 0)
+    assert sky.any() and (clear.color[sky] == 0).all()  # nothing over nothing
+    assert ((alpha > 0) & (alpha < 1)).any()  # the smoke covers partly
+    # premultiplied: over the background it is the frame drawn on the background
+    background = np.zeros_like(plain.color)
+    renderer.renderer.background.fill(_Holder(background))
+    composite = clear.color + (1 - alpha[..., None]) * background
+    np.testing.assert_allclose(composite, plain.color, atol=2e-6)
+    # and in a file: RGBA in half float
+    path = tmp_path / "smoke.toml"
+    path.write_text(SMOKE)
+    out = tmp_path / "smoke.exr"
+    assert cli("run", path, "--frame", 3, "-o", out, "--alpha", "--resolution", "96x54") == 0
+    rgba, _, _ = read_exr(out)
+    assert rgba.shape == (54, 96, 4)
+    np.testing.assert_allclose(rgba[..., 3], alpha, atol=1e-3)
+
+
+class _Holder:
+    """What Background.fill writes into: an object with ``color``, ``height``."""
+
+    def __init__(self, color):
+        self.color, self.height = color, color.shape[0]
+
+
+def test_png_with_straight_alpha_and_16_bits(tmp_path, capsys):
+    pytest.importorskip("png")
+    from motes.io.frames import read_metadata, read_png16
+
+    path = tmp_path / "smoke.toml"
+    path.write_text(SMOKE)
+    common = ("--frame", 3, "--resolution", "96x54", "-q")
+    assert cli("run", path, "-o", tmp_path / "plain.png", *common) == 0
+    assert cli("run", path, "-o", tmp_path / "alpha.png", "--alpha", *common) == 0
+    assert cli("run", path, "-o", tmp_path / "deep.png", "--bits", 16, *common) == 0
+    sequence = ("--frames", 3, "--resolution", "96x54", "-q")
+    assert cli("run", path, "-o", tmp_path / "both", "--bits", 16, "--alpha", *sequence) == 0
+    scene = load_scene(SMOKE)
+    for _ in range(3):
+        scene.advance()
+    clear = scene.renderer((96, 54)).render_scene_hdr(scene, transparent=True)
+    rgba = read_image(tmp_path / "alpha.png", alpha=True)
+    assert rgba.shape == (54, 96, 4)
+    assert_array_equal(rgba[..., 3], np.rint(clear.alpha * 255).astype(np.uint8))
+    assert (rgba[..., :3][clear.alpha == 0] == 0).all()  # nothing where nothing covers
+    covered = clear.alpha == 1  # the ground: the frame's own colours
+    plain = read_image(tmp_path / "plain.png")
+    assert np.abs(rgba[..., :3][covered].astype(int) - plain[covered]).max() <= 1
+    deep = read_png16(tmp_path / "deep.png")
+    assert deep.dtype == np.uint16 and deep.shape == (54, 96, 3)
+    # 16 bits hold the 8-bit frame and 8 more bits below it
+    assert np.abs(deep / 257.0 - plain).max() <= 0.5 + 1e-9
+    assert len(np.unique(deep)) > len(np.unique(plain))
+    assert read_metadata(tmp_path / "deep.png")["scene"] == "puff"
+    *_, frame = sorted((tmp_path / "both").glob("frame_*.png"))
+    both = read_png16(frame)
+    assert both.shape == (54, 96, 4)
+    assert_array_equal(both[..., 3], np.rint(clear.alpha * 65535).astype(np.uint16))
+
+
+def test_alpha_and_bits_need_an_image_format(tmp_path, capsys):
+    path = tmp_path / "puff.toml"
+    path.write_text(PUFF)
+    assert cli("run", path, "--frames", 1, "-o", tmp_path / "a.mp4", "--alpha") == 2
+    assert "--alpha needs -o NAME.exr, NAME.png or a folder" in capsys.readouterr().err
+    assert cli("run", path, "--frame", 1, "-o", tmp_path / "a.exr", "--bits", 16) == 2
+    assert "--bits 16 needs -o NAME.png or a folder" in capsys.readouterr().err

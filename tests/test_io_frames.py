@@ -334,9 +334,19 @@ def test_unknown_suffix_lists_the_allowed_ones(tmp_path):
     ],
 )
 def test_bad_frames_are_refused(tmp_path, frame, error, match):
-    with open_writer(tmp_path / "still.png") as out, pytest.raises(error, match=match):
+    with open_writer(tmp_path / "movie.mp4") as out, pytest.raises(error, match=match):
         out.write(frame)
     assert out.frames_written == 0
+
+
+def test_png_writers_take_rgba_and_16_bits_but_not_floats(tmp_path):
+    with open_writer(tmp_path / "still.png") as out:
+        with pytest.raises(TypeError, match="dtype uint8 or uint16"):
+            out.write(np.zeros((HEIGHT, WIDTH, 3), np.float32))
+        with pytest.raises(ValueError, match=r"shape \(height, width, 3 or 4\)"):
+            out.write(np.zeros((HEIGHT, WIDTH, 2), np.uint8))
+        out.write(np.full((HEIGHT, WIDTH, 4), 200, np.uint8))
+    assert read_image(tmp_path / "still.png", alpha=True)[0, 0].tolist() == [200] * 4
 
 
 def test_frames_of_one_writer_must_have_one_size(tmp_path):

@@ -99,3 +99,21 @@ def dask_options(parser: argparse.ArgumentParser, *, workers: str, scheduler: st
     farm = parser.add_mutually_exclusive_group()
     farm.add_argument("--workers", type=integer_from(1), metavar="N", help=workers)
     farm.add_argument("--scheduler", metavar="ADDRESS", help=scheduler)
+
+
+def image_options(parser: argparse.ArgumentParser) -> None:
+    """``--bits`` and ``--alpha``: what an image output holds beyond 8-bit RGB."""
+    parser.add_argument(
+        "--bits",
+        type=int,
+        choices=(8, 16),
+        default=8,
+        help="bits a channel of PNG output (16: through pypng, pip install 'motes[png16]')",
+    )
+    parser.add_argument(
+        "--alpha",
+        action="store_true",
+        help="a transparent background and an alpha channel: premultiplied in NAME.exr, "
+        "straight in PNG (geometry and alpha-blended particles cover, additive light does "
+        "not: it is kept in OpenEXR only)",
+    )

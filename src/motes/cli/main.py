@@ -19,12 +19,17 @@ import re
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy as np
 
 from .common import (
     UserError,
     dask_options,
     digits,
     frame_range,
+    image_options,
     integer_from,
     positive,
     resolution,
@@ -116,6 +121,7 @@ def _parser() -> argparse.ArgumentParser:
         "system.0.emitter.0.rate.rate=500 or system.NAME.capacity=5000 (a TOML value; "
         "other text is a string); repeatable",
     )
+    image_options(run)
     run.add_argument(
         "--resolution",
         type=resolution,
@@ -196,6 +202,7 @@ def _parser() -> argparse.ArgumentParser:
         metavar="A:B",
         help="the cached frames A to B - 1 (counted from 0, as Python slices; default: all)",
     )
+    image_options(render)
     render.add_argument(
         "--resolution",
         type=resolution,
@@ -456,6 +463,7 @@ def _render(args) -> int:
     if output.suffix.lower() not in OUTPUTS:
         raise UserError(f"-o must end in .mp4, .gif, .png or .exr, or be a directory; got {output}")
     _check_exr(output)
+    _check_alpha(args, output)
     if output.parent != Path() and not output.parent.is_dir():
         raise UserError(f"output directory does not exist: {output.parent}")
     _check_writable(output)
@@ -493,7 +501,8 @@ def _render(args) -> int:
         return _render_farm(args, scene, indices, resolution, progress, overrides)
     if output.suffix.lower() == ".exr":
         replay.place(indices[-1])
-        _write_exr(output, scene.renderer(resolution), scene, replay.states(indices[-1]))
+        states = replay.states(indices[-1])
+        _write_exr(output, scene.renderer(resolution), scene, states, alpha=args.alpha)
         if not args.quiet:
             print(f"wrote {output} (cached frame {indices[-1]})")
         return 0
@@ -514,7 +523,11 @@ def _render(args) -> int:
         outputs.callback(progress.close)
         try:
             for index in indices:
-                writer.write(replay.render(index, resolution))
+                if args.alpha or args.bits == 16:
+                    replay.place(index)
+                    writer.write(_picture(args, scene, resolution, replay.states(index)))
+                else:
+                    writer.write(replay.render(index, resolution))
                 done += 1
                 progress.update(done)
         except KeyboardInterrupt:
@@ -588,12 +601,43 @@ def _check_exr(output: Path | None) -> None:
             raise UserError(str(error)) from None
 
 
-def _write_exr(output: Path, renderer, scene, states) -> None:
-    """The frame now as OpenEXR: linear colour times the exposure, and the depth."""
+def _write_exr(output: Path, renderer, scene, states, *, alpha: bool = False) -> None:
+    """The frame now as OpenEXR: linear colour times the exposure, and the depth; with
+    ``alpha``, premultiplied over a transparent background, with its coverage."""
     from ..io.exr import write_exr
 
-    frame = renderer.render_scene_hdr(scene, states)
-    write_exr(output, frame.color * renderer.exposure, frame.depth, _record(scene))
+    frame = renderer.render_scene_hdr(scene, states, transparent=alpha)
+    color = frame.color * renderer.exposure
+    write_exr(output, color, frame.depth, _record(scene), alpha=frame.alpha)
+
+
+def _check_alpha(args, output: Path | None) -> None:
+    """``--alpha`` needs an image format with alpha; ``--bits 16`` a PNG one (and pypng)."""
+    suffix = None if output is None else output.suffix.lower()
+    if args.alpha and suffix not in (".exr", ".png", ""):
+        raise UserError("--alpha needs -o NAME.exr, NAME.png or a folder of PNG frames")
+    if args.bits == 16:
+        if suffix not in (".png", ""):
+            raise UserError("--bits 16 needs -o NAME.png or a folder of PNG frames")
+        try:
+            import png  # noqa: F401
+        except ImportError:
+            raise UserError(
+                "16-bit PNG needs the pypng package: pip install 'motes[png16]'"
+            ) from None
+
+
+def _picture(args, scene, resolution, states=None) -> np.ndarray:
+    """The frame now as the image to write: the 8-bit sRGB frame, or with ``--alpha``
+    (straight alpha over a transparent background) or ``--bits 16`` the file's pixels."""
+    renderer = scene.renderer(resolution)
+    if not args.alpha and args.bits == 8:
+        return renderer.render_scene(scene, states)
+    from ..render.tonemap import to_display
+
+    frame = renderer.render_scene_hdr(scene, states, transparent=args.alpha)
+    return to_display(frame.color, exposure=renderer.exposure, tonemap=renderer.tonemap,
+                      alpha=frame.alpha, bits=args.bits)  # fmt: skip
 
 
 def _run(args) -> int:
@@ -623,6 +667,7 @@ def _run(args) -> int:
             raise UserError("--frame and --time draw one frame: give -o NAME.png or NAME.exr")
         frames = args.frame or max(1, round(args.time * scene.fps))
     _check_exr(output)
+    _check_alpha(args, output)
     if output is not None and output.parent != Path() and not output.parent.is_dir():
         raise UserError(f"output directory does not exist: {output.parent}")
     _check_writable(output)
@@ -678,9 +723,10 @@ def _run(args) -> int:
             for index in range(frames):
                 scene.advance()
                 if writer is not None and (not still or index == frames - 1):
-                    writer.write(scene.render(resolution))
+                    writer.write(_picture(args, scene, resolution))
                 if exr and index == frames - 1:
-                    _write_exr(output, scene.renderer(resolution), scene, None)
+                    renderer = scene.renderer(resolution)
+                    _write_exr(output, renderer, scene, None, alpha=args.alpha)
                 if exporter is not None:
                     entries = scene.entries(surfaces=exporter.surfaces)
                     exporter.write_frame(scene.frame, scene.time, entries)

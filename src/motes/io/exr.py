@@ -42,9 +42,13 @@ def check_available() -> None:
     _openexr()
 
 
-def write_exr(path, color: np.ndarray, depth: np.ndarray | None = None, metadata=None) -> None:
-    """Write ``color`` ((h, w, 3) linear RGB, stored as half float) and ``depth`` ((h, w)
-    [m], stored as float32 ``Z``) to the OpenEXR file ``path``, atomically.
+def write_exr(
+    path, color: np.ndarray, depth: np.ndarray | None = None, metadata=None, alpha=None
+) -> None:
+    """Write ``color`` ((h, w, 3) linear RGB, stored as half float), ``depth`` ((h, w)
+    [m], stored as float32 ``Z``) and ``alpha`` ((h, w) coverage, half float ``A``; the
+    colour premultiplied by it, as OpenEXR's convention has it) to the OpenEXR file
+    ``path``, atomically.
 
     Values beyond half float's range (65504) are stored as infinity, so clip first what
     must stay finite.
@@ -54,6 +58,12 @@ def write_exr(path, color: np.ndarray, depth: np.ndarray | None = None, metadata
     if color.ndim != 3 or color.shape[2] != 3:
         raise ValueError(f"color must have shape (height, width, 3), got {color.shape}")
     channels = {"RGB": np.ascontiguousarray(color, dtype=np.float16)}
+    if alpha is not None:
+        alpha = np.asarray(alpha)
+        if alpha.shape != color.shape[:2]:
+            raise ValueError(f"alpha must have shape {color.shape[:2]}, got {alpha.shape}")
+        rgba = np.concatenate([color, alpha[..., None]], axis=2)
+        channels = {"RGBA": np.ascontiguousarray(rgba, dtype=np.float16)}
     if depth is not None:
         depth = np.asarray(depth)
         if depth.shape != color.shape[:2]:
@@ -69,11 +79,13 @@ def write_exr(path, color: np.ndarray, depth: np.ndarray | None = None, metadata
 
 def read_exr(path) -> tuple[np.ndarray, np.ndarray | None, dict]:
     """``(color, depth, metadata)`` of an OpenEXR file written by :func:`write_exr`:
-    (h, w, 3) float32, (h, w) float32 or None, and the ``motes`` header record."""
+    (h, w, 3) float32 (or (h, w, 4), premultiplied RGBA, for one with alpha), (h, w)
+    float32 or None, and the ``motes`` header record."""
     OpenEXR = _openexr()
     with OpenEXR.File(str(path)) as exr:
         channels = exr.channels()
         record = exr.header().get("motes")
-        color = np.asarray(channels["RGB"].pixels, dtype=np.float32)
+        key = "RGBA" if "RGBA" in channels else "RGB"
+        color = np.asarray(channels[key].pixels, dtype=np.float32)
         depth = np.asarray(channels["Z"].pixels, dtype=np.float32) if "Z" in channels else None
     return color, depth, json.loads(record) if record else {}

@@ -64,6 +64,7 @@ Examples
 from __future__ import annotations
 
 import contextlib
+import io
 import json
 import math
 import os
@@ -107,8 +108,11 @@ def _check_metadata(metadata) -> dict[str, str]:
     return dict(metadata)
 
 
-def _check_image(name: str, image, *, channels: tuple[int, ...] = (3,)) -> np.ndarray:
-    """``image`` as a C-contiguous ``uint8`` array of shape ``(height, width, c)``."""
+def _check_image(
+    name: str, image, *, channels: tuple[int, ...] = (3,), dtypes: tuple = (np.uint8,)
+) -> np.ndarray:
+    """``image`` as a C-contiguous array of shape ``(height, width, c)``, of one of
+    ``dtypes`` (``uint8`` unless a writer takes 16 bits too)."""
     if not isinstance(image, np.ndarray):
         raise TypeError(f"{name} must be a NumPy array, got {type(image).__name__}")
     allowed = " or ".join(str(c) for c in channels)
@@ -117,7 +121,9 @@ def _check_image(name: str, image, *, channels: tuple[int, ...] = (3,)) -> np.nd
             f"{name} must have shape (height, width, {allowed}) with height, width >= 1, "
             f"got shape {image.shape}"
         )
-    if image.dtype != np.uint8:
+    if image.dtype not in dtypes:
+        if dtypes != (np.uint8,):
+            raise TypeError(f"{name} must have dtype uint8 or uint16, got {image.dtype}")
         raise TypeError(
             f"{name} must have dtype uint8 (sRGB values 0-255), got {image.dtype}; "
             "convert colours in [0, 1] with (np.clip(x, 0, 1) * 255 + 0.5).astype(np.uint8)"
@@ -151,6 +157,11 @@ class FrameWriter(ABC):
     frame (dtype, shape, the same size as the first), counts frames, defers Ctrl-C while
     a frame is handed over, and makes :meth:`close` idempotent.
     """
+
+    #: Channels a frame may have (RGB; the PNG writers take RGBA too).
+    channels: tuple[int, ...] = (3,)
+    #: Dtypes a frame may have (8 bits; the PNG writers take 16 too).
+    dtypes: tuple = (np.uint8,)
 
     def __init__(self, path):
         self.path = Path(path)
@@ -187,7 +198,7 @@ class FrameWriter(ABC):
         """
         if self._closed:
             raise ValueError(f"write to a closed writer ({self.path})")
-        frame = _check_image("frame", frame)
+        frame = _check_image("frame", frame, channels=self.channels, dtypes=self.dtypes)
         if self._shape is None:
             self._shape = frame.shape
         elif frame.shape != self._shape:
@@ -236,6 +247,9 @@ class FrameWriter(ABC):
 class PngWriter(FrameWriter):
     """A single PNG image: the *last* frame written, saved when the writer closes.
 
+    Frames may be RGB or RGBA (straight alpha, as PNG has it), 8 or 16 bits a channel
+    (``uint8`` or ``uint16``; 16 bits through ``pypng``, the extra ``motes[png16]``).
+
     Useful for "render this scene and show me the final frame". Only one frame is held
     in memory (a copy, so the caller may reuse its buffer).
 
@@ -246,6 +260,9 @@ class PngWriter(FrameWriter):
     metadata : dict of str, optional
         Stored as PNG text chunks (see the module notes).
     """
+
+    channels = (3, 4)
+    dtypes = (np.uint8, np.uint16)
 
     def __init__(self, path, *, metadata: dict[str, str] | None = None):
         super().__init__(_check_file_path(path, ".png"))
@@ -263,6 +280,8 @@ class PngWriter(FrameWriter):
 
 class SequenceWriter(FrameWriter):
     """A directory of numbered PNG files, ``frame_00000.png``, ``frame_00001.png``, ...
+
+    Frames as :class:`PngWriter` takes them: RGB or RGBA, 8 or 16 bits.
 
     Each file is complete when it appears (written under a temporary name and renamed).
     The directory is created if needed. Files of an earlier, longer run with numbers
@@ -282,6 +301,9 @@ class SequenceWriter(FrameWriter):
         directory when the writer closes (if it wrote a frame); without metadata the
         directory holds only the frames.
     """
+
+    channels = (3, 4)
+    dtypes = (np.uint8, np.uint16)
 
     def __init__(
         self,
@@ -755,6 +777,9 @@ def save_image(path, image: np.ndarray) -> None:
 
 
 def _save_png(path: Path, image: np.ndarray, metadata: dict[str, str] | None = None) -> None:
+    if image.dtype == np.uint16:
+        _save_png16(path, image, metadata)
+        return
     from PIL import Image, PngImagePlugin
 
     info = None
@@ -769,6 +794,45 @@ def _save_png(path: Path, image: np.ndarray, metadata: dict[str, str] | None = N
     with replacing(path) as tmp:
         # the mode follows from the shape: (h, w, 3) is RGB, (h, w, 4) RGBA
         Image.fromarray(image).save(tmp, format="PNG", pnginfo=info)
+
+
+def _save_png16(path: Path, image: np.ndarray, metadata: dict[str, str] | None) -> None:
+    """A 16-bit RGB or RGBA PNG, through pypng (Pillow holds 16 bits in one channel
+    only); the metadata as the same text chunks Pillow writes (``tEXt``, or ``iTXt`` for
+    text beyond Latin-1: keyword, no compression, no language)."""
+    png = _pypng()
+    height, width, channels = image.shape
+    writer = png.Writer(width, height, greyscale=False, alpha=channels == 4, bitdepth=16)
+    encoded = io.BytesIO()
+    writer.write(encoded, image.reshape(height, -1))
+    chunks = list(png.Reader(bytes=encoded.getvalue()).chunks())
+    for key, value in (metadata or {}).items():
+        if value.isascii():
+            chunk = (b"tEXt", key.encode("latin-1") + b"\0" + value.encode("latin-1"))
+        else:
+            chunk = (b"iTXt", key.encode("latin-1") + b"\0\0\0\0\0" + value.encode())
+        chunks.insert(1, chunk)  # after IHDR
+    with replacing(path) as tmp, open(tmp, "wb") as out:
+        png.write_chunks(out, chunks)
+
+
+def _pypng():
+    try:
+        import png
+    except ImportError:
+        raise ImportError(
+            "16-bit PNG needs the pypng package: pip install 'motes[png16]'"
+        ) from None
+    return png
+
+
+def read_png16(path) -> np.ndarray:
+    """A 16-bit PNG as a (height, width, 3 or 4) ``uint16`` array (through pypng)."""
+    png = _pypng()
+    with open(path, "rb") as stream:
+        width, height, rows, info = png.Reader(file=stream).asDirect()
+        image = np.vstack([np.asarray(row, dtype=np.uint16) for row in rows])
+    return image.reshape(height, width, info["planes"])
 
 
 def read_metadata(path) -> dict:
@@ -828,21 +892,24 @@ def _mp4_comment(path: Path) -> dict:
     return {}
 
 
-def read_image(path) -> np.ndarray:
+def read_image(path, *, alpha: bool = False) -> np.ndarray:
     """Read an image file (any format Pillow reads) as sRGB.
 
     Parameters
     ----------
     path : str or os.PathLike
         Image file.
+    alpha : bool
+        Keep (or add, opaque) an alpha channel.
 
     Returns
     -------
     numpy.ndarray
-        ``uint8`` array of shape ``(height, width, 3)``; an alpha channel is dropped,
-        palette and grey images are expanded to RGB.
+        ``uint8`` array of shape ``(height, width, 3)`` (``4`` with ``alpha``); palette
+        and grey images are expanded to RGB. A 16-bit PNG is read at 8 bits
+        (:func:`read_png16` reads its 16).
     """
     from PIL import Image
 
     with Image.open(path) as image:
-        return np.array(image.convert("RGB"))
+        return np.array(image.convert("RGBA" if alpha else "RGB"))

@@ -20,6 +20,8 @@ class Frame:
         Linear-light radiance, unbounded above (HDR).
     depth : (height, width) float32
         View-space depth [m] of the nearest opaque surface; ``inf`` where there is none.
+    alpha : (height, width) float32 or None
+        Coverage, for a frame drawn over a transparent background.
     """
 
     def __init__(self, width: int, height: int):
@@ -27,6 +29,9 @@ class Frame:
         height = check.integer("height", height, low=1)
         self.color = np.zeros((height, width, 3), dtype=np.float32)
         self.depth = np.full((height, width), np.inf, dtype=np.float32)
+        #: (height, width) float32 coverage in [0, 1] of a frame drawn over a transparent
+        #: background (``color`` is then premultiplied by it); None otherwise.
+        self.alpha: np.ndarray | None = None
 
     @property
     def width(self) -> int:

@@ -12,6 +12,8 @@ or a state itself.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .. import _memory
@@ -95,14 +97,23 @@ class Renderer:
         # One rasteriser per (system, style) keeps its scratch buffers between frames
         # (tens of MB at a million particles); the entries hold no reference to systems.
         self._rasterizers: dict[tuple[int, int], SpriteRasterizer] = {}
+        # the white coverage pass of a transparent frame: (style drawn, its rasteriser)
+        self._coverage_rasterizers: dict[tuple[int, int], tuple] = {}
         to_srgb8(np.zeros((1, 1, 3), np.float32), exposure=exposure, tonemap=tonemap)
 
     @property
     def resolution(self) -> tuple[int, int]:
         return self.camera.resolution
 
-    def render_hdr(self, systems=(), objects=()) -> Frame:
+    def render_hdr(self, systems=(), objects=(), *, transparent: bool = False) -> Frame:
         """The frame in linear light (before tone mapping).
+
+        ``transparent`` draws over nothing instead of the background and fills
+        ``frame.alpha``: opaque geometry covers its pixels, alpha-blended particles
+        ``1 - prod(1 - a)`` of what lies in front of it (a second pass of them in white
+        gives it), additive ones nothing (light adds, it does not cover). ``color`` is
+        then premultiplied: over a background ``B``, ``color + (1 - alpha) B`` is the
+        frame drawn on ``B``.
 
         ``systems`` holds particles — a :class:`~motes.state.ParticleState` or anything
         with ``particle_state()`` (a :class:`~motes.system.ParticleSystem`, a liquid,
@@ -112,7 +123,8 @@ class Renderer:
         """
         width, height = self.camera.resolution
         frame = Frame(width, height)
-        self.background.fill(frame)
+        if not transparent:
+            self.background.fill(frame)
         items = self._draw_order(systems)
         objects = list(objects)
         shadowing = None
@@ -135,7 +147,33 @@ class Renderer:
                 rasterizer = self._rasterizers[key] = SpriteRasterizer(style)
             colors = _lit_colors(state, shadowing) if style.lit else None
             draw_system(frame, self.camera, state, rasterizer, colors=colors)
+        if transparent:
+            frame.alpha = self._coverage(frame, items)
         return frame
+
+    def _coverage(self, frame: Frame, items) -> np.ndarray:
+        """Alpha of a frame drawn over nothing: 1 on opaque geometry, else what the
+        alpha-blended particles cover (drawn again in white, at intensity 1, over black,
+        with the same depth buffer, so occlusion and soft fading match)."""
+        cover = Frame(frame.width, frame.height)
+        cover.depth = frame.depth
+        for owner, state, style in items:
+            if style.blend is not Blend.ALPHA:
+                continue
+            white = np.array(_colors(state), dtype=np.float32)
+            white[:, :3] = 1.0
+            key = (id(owner), id(style))
+            made_for, rasterizer = self._coverage_rasterizers.get(key, (None, None))
+            if made_for is not style:  # none yet, or ids reused
+                if len(self._coverage_rasterizers) > 64:
+                    self._coverage_rasterizers.clear()
+                plain = dataclasses.replace(style, intensity=1.0, lit=False)
+                rasterizer = SpriteRasterizer(plain)
+                self._coverage_rasterizers[key] = (style, rasterizer)
+            draw_system(cover, self.camera, state, rasterizer, colors=white)
+        alpha = np.clip(cover.color[..., 0], 0.0, 1.0)
+        alpha[np.isfinite(frame.depth)] = 1.0
+        return alpha
 
     def render(self, systems=(), objects=()) -> np.ndarray:
         """The frame as a (height, width, 3) uint8 sRGB image."""

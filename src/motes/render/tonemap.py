@@ -91,3 +91,46 @@ def to_srgb8(color, *, exposure: float = 1.0, tonemap: str = "aces", out=None) -
         np.ascontiguousarray(color, dtype=np.float32), exposure, _lookup_table(curve), out
     )
     return out
+
+
+def to_srgb(color, *, exposure: float = 1.0, tonemap: str = "aces") -> np.ndarray:
+    """The tone curve and sRGB encoding of :func:`to_srgb8`, evaluated exactly (no
+    lookup table), as float32 in [0, 1]: for 16-bit output, where the table's error
+    would show."""
+    color = np.asarray(color, dtype=np.float32)
+    exposure = check.positive("exposure", exposure)
+    curve = ToneMap(check.choice("tonemap", tonemap, [t.value for t in ToneMap]))
+    mapped = _curve(np.maximum(color * exposure, 0.0), curve)
+    return linear_to_srgb(np.minimum(mapped, 1.0)).astype(np.float32)
+
+
+def to_display(
+    color,
+    *,
+    exposure: float = 1.0,
+    tonemap: str = "aces",
+    alpha: np.ndarray | None = None,
+    bits: int = 8,
+) -> np.ndarray:
+    """A frame as the pixels of an image file: RGB, or RGBA with ``alpha``, 8 or 16 bits.
+
+    ``color`` is linear light; with ``alpha`` (coverage, (h, w)) it is premultiplied, as
+    a frame drawn over a transparent background is, and the image holds straight alpha,
+    as PNG does: the colour divided by the alpha, then tone mapped (where the alpha is 0
+    the colour is dropped: light added over nothing is kept only by OpenEXR).
+    """
+    bits = check.choice("bits", bits, [8, 16])
+    color = np.asarray(color, dtype=np.float32)
+    if alpha is not None:
+        alpha = np.clip(np.asarray(alpha, dtype=np.float32), 0.0, 1.0)
+        covered = alpha > 0
+        straight = np.zeros_like(color)
+        straight[covered] = color[covered] / alpha[covered][:, None]
+        color = straight
+    if bits == 8 and alpha is None:
+        return to_srgb8(color, exposure=exposure, tonemap=tonemap)
+    top, dtype = (255, np.uint8) if bits == 8 else (65535, np.uint16)
+    channels = [to_srgb(color, exposure=exposure, tonemap=tonemap)]
+    if alpha is not None:
+        channels.append(alpha[..., None])
+    return np.rint(np.concatenate(channels, axis=2) * top).astype(dtype)

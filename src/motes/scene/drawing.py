@@ -55,15 +55,21 @@ class SceneRenderer:
         systems' (a cached frame: ``motes render``)."""
         return self.renderer.render(*self._contents(scene, states))
 
-    def render_scene_hdr(self, scene, states=None):
+    def render_scene_hdr(self, scene, states=None, *, transparent: bool = False):
         """The scene's frame now in linear light, before exposure and tone mapping: a
-        :class:`~motes.render.frame.Frame` (``color`` and ``depth``)."""
-        return self.renderer.render_hdr(*self._contents(scene, states))
+        :class:`~motes.render.frame.Frame` (``color``, ``depth``; with ``transparent``,
+        premultiplied over nothing, and ``alpha``)."""
+        return self.renderer.render_hdr(*self._contents(scene, states), transparent=transparent)
 
     @property
     def exposure(self) -> float:
         """The scene's exposure (a factor on linear radiance)."""
         return self.renderer.exposure
+
+    @property
+    def tonemap(self) -> str:
+        """The scene's tone curve (:class:`~motes.render.tonemap.ToneMap` name)."""
+        return self.renderer.tonemap
 
     def _contents(self, scene, states) -> tuple[list, list]:
         """The particle systems and the objects the renderer draws for the scene now."""
