@@ -17,6 +17,7 @@ True
 
 from __future__ import annotations
 
+import copy
 import functools
 from typing import NamedTuple
 
@@ -27,7 +28,15 @@ from ..geometry.mesh import TriangleMesh
 from ._raster import CORNER, LINE_SIZE, draw_tiles, project_vertices, setup_lines, setup_triangles
 from .camera import Camera
 from .frame import Frame
-from .shading import SURFACE_SIZE, Material, rgb, surface_row
+from .shading import (
+    SURFACE_SIZE,
+    AmbientLight,
+    DirectionalLight,
+    Material,
+    default_lights,
+    rgb,
+    surface_row,
+)
 from .shadows import Shadowing, unshadowed
 from .tiles import bin_boxes
 
@@ -428,9 +437,29 @@ class Lines:
     width : float or (m,) array_like
         Width [px of the frame], > 0. Lines thinner than a sample are drawn a sample wide
         with proportionally less coverage.
+    shading : {"flat", "hair"}
+        ``"flat"``: the colours as given (unlit). ``"hair"``: lit as fibres by
+        Kajiya & Kay's (1989) model from the scene's lights, each segment's tangent
+        ``t`` standing for the fibre: diffuse ``colour * sin(t, l)`` and a highlight
+        ``specular * (sin(t, l) sin(t, e) - cos(t, l) cos(t, e))^shininess`` in the
+        light's colour (``l`` toward the light, ``e`` toward the eye), plus the ambient
+        light times the colour. Not shadowed.
+    specular, shininess : float
+        The highlight's strength (>= 0) and exponent (> 0), for ``"hair"``.
     """
 
-    def __init__(self, points, segments=None, *, color=(1, 1, 1), point_colors=None, width=1.0):
+    def __init__(
+        self,
+        points,
+        segments=None,
+        *,
+        color=(1, 1, 1),
+        point_colors=None,
+        width=1.0,
+        shading: str = "flat",
+        specular: float = 0.25,
+        shininess: float = 60.0,
+    ):
         pts = check.points("points", points, min_rows=1)
         if segments is None:
             if len(pts) < 2:
@@ -462,6 +491,50 @@ class Lines:
         if not np.all(np.isfinite(w)) or np.any(w <= 0):
             raise ValueError("width must be finite and > 0 [px]")
         self.width = w
+        self.shading = check.choice("shading", shading, ("flat", "hair"))
+        self.specular = check.non_negative("specular", specular)
+        self.shininess = check.positive("shininess", shininess)
+
+    def lit(self, camera: Camera, lights) -> Lines:
+        """These lines with each segment end's colour lit as a fibre (``shading =
+        "hair"``: see the class notes); ``self`` for flat lines."""
+        if self.shading == "flat" or not len(self.segments):
+            return self
+        ends = self.ends()  # (m, 2, 3)
+        tangent = ends[:, 1] - ends[:, 0]
+        length = np.linalg.norm(tangent, axis=1, keepdims=True)
+        tangent = np.where(length > 0, tangent / np.maximum(length, 1e-30), (1.0, 0.0, 0.0))
+        tangent = tangent[:, None, :]  # the segment's, at both ends
+        eye = camera.position - ends
+        eye /= np.maximum(np.linalg.norm(eye, axis=2, keepdims=True), 1e-30)
+        base = self.colors.astype(np.float64)
+        out = np.zeros_like(base)
+        cos_e = np.sum(tangent * eye, axis=2)
+        sin_e = np.sqrt(np.maximum(1.0 - cos_e**2, 0.0))
+        for light in default_lights() if lights is None else lights:
+            radiance = light.color * light.intensity
+            if isinstance(light, AmbientLight):
+                out += base * 0.5 * (light.color + light.ground) * light.intensity
+                continue
+            if isinstance(light, DirectionalLight):
+                toward = np.broadcast_to(-light.direction, ends.shape)
+                scale = 1.0
+            else:  # a point light
+                toward = light.position - ends
+                distance = np.linalg.norm(toward, axis=2, keepdims=True)
+                toward = toward / np.maximum(distance, 1e-30)
+                scale = 1.0 / np.maximum(distance, 1e-30) ** 2 if light.falloff else 1.0
+            cos_l = np.sum(tangent * toward, axis=2)
+            sin_l = np.sqrt(np.maximum(1.0 - cos_l**2, 0.0))
+            highlight = np.maximum(sin_l * sin_e - cos_l * cos_e, 0.0) ** self.shininess
+            # the highlight half white, half the fibre's colour (light that entered it)
+            tint = 0.5 + 0.5 * base
+            lit = base * sin_l[..., None] + self.specular * highlight[..., None] * tint
+            out += radiance * scale * lit
+        shaded = copy.copy(self)
+        shaded.colors = out.astype(np.float32)
+        shaded.shading = "flat"
+        return shaded
 
     @classmethod
     def strips(cls, strips, *, color=(1, 1, 1), width=1.0) -> Lines:
@@ -542,7 +615,7 @@ def draw_geometry(
     sets, line_sets = [], []
     for i, obj in enumerate(objects):
         if isinstance(obj, Lines):
-            line_sets.append(obj)
+            line_sets.append(obj.lit(camera, lights))
         elif isinstance(obj, (Ground, Sphere, Spheres, Capsule, Box, Mesh)):
             sets.append(obj.triangles(camera))
         else:

@@ -315,6 +315,9 @@ class HairBody(Body):
         self.point_colors = np.tile(ramp, (hair.strand_count, 1))
         index = np.arange(hair.n).reshape(hair.strand_count, p)
         self.segments = np.stack([index[:, :-1].ravel(), index[:, 1:].ravel()], 1)
+        # strands taper from the root to 40 % of the width at the tip
+        along = np.tile(np.arange(p - 1) / max(p - 2, 1), hair.strand_count)
+        self.widths = width * (1.0 - 0.6 * along)
 
     def step(self, dt: float) -> None:
         self.hair.step(dt)
@@ -333,8 +336,9 @@ class HairBody(Body):
             eye = c + r @ (0.35 * side * radius, 0.2 * radius, 0.88 * radius)
             features.append(geometry.Sphere(eye, 0.1 * radius, color=(0.02, 0.02, 0.03)))
         lines = geometry.Lines(
-            self.hair.position.T, self.segments, point_colors=self.point_colors, width=self.width
-        )
+            self.hair.position.T, self.segments, point_colors=self.point_colors,
+            width=self.widths, shading="hair",
+        )  # fmt: skip
         return [*features, lines]
 
     def count(self) -> int:
