@@ -186,3 +186,14 @@ def test_alpha_and_bits_need_an_image_format(tmp_path, capsys):
     assert "--alpha needs -o NAME.exr, NAME.png or a folder" in capsys.readouterr().err
     assert cli("run", path, "--frame", 1, "-o", tmp_path / "a.exr", "--bits", 16) == 2
     assert "--bits 16 needs -o NAME.png or a folder" in capsys.readouterr().err
+
+
+def test_the_farm_refuses_what_it_cannot_draw_yet(tmp_path, capsys):
+    scene = tmp_path / "puff.toml"
+    scene.write_text(PUFF)
+    cache = tmp_path / "c.h5"
+    assert cli("run", scene, "--frames", 1, "--no-render", "--export", cache, "-q") == 0
+    args = ("-o", tmp_path / "f", "--scene", scene, "--workers", 2)
+    assert cli("render", cache, *args, "--alpha") == 2
+    assert "--workers and --scheduler draw 8-bit frames" in capsys.readouterr().err
+    assert not (tmp_path / "f").exists()

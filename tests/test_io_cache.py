@@ -510,3 +510,24 @@ def test_surfaces_of_every_frame_come_back(tmp_path, suffix):
             assert_equal(got[0], vertices)
             assert_equal(got[1], np.asarray(faces).reshape(-1, 3))
         assert loaded.entry(4).surface[0].shape == (0, 3)
+
+
+def test_damage_found_when_an_h5_frame_is_read_names_the_file_and_entry(tmp_path):
+    from motes.io.cache import DamagedCacheError
+
+    path = tmp_path / "run.h5"
+    store = mo.ParticleStore(20_000)
+    store.spawn(20_000)
+    store["position"][:] = np.random.default_rng(0).random((20_000, 3))
+    with CacheWriter(path) as cache:
+        for k in range(6):
+            cache.add_frame(k * DT, {"store": store})
+    size = path.stat().st_size
+    with open(path, "r+b") as stream:  # zeros over the middle of the compressed chunks
+        stream.seek(size // 2)
+        stream.write(bytes(size // 8))
+    damaged = r"run\.h5 is a damaged motes cache: store/"
+    # the index is intact: the damage shows when a frame is read
+    with load_cache(path) as loaded, pytest.raises(DamagedCacheError, match=damaged):
+        for f in range(6):
+            loaded.frame(f, "store")

@@ -371,7 +371,7 @@ def _exporter(path: str, **options):
 
 def _export(args) -> int:
     """``motes export CACHE OUT``: replay a cache through the writer OUT's extension picks."""
-    from ..io.cache import load_cache
+    from ..io.cache import DamagedCacheError, load_cache
     from ..io.export import ExportError, export_cache, writer_class
     from .progress import Progress
 
@@ -407,7 +407,7 @@ def _export(args) -> int:
         held = writer.frames_written
         print(f"motes: interrupted; {args.output} holds {held} frames", file=sys.stderr)
         return 130
-    except ExportError as error:
+    except (ExportError, DamagedCacheError) as error:
         progress.close()
         raise UserError(str(error)) from None
     progress.close()
@@ -452,7 +452,7 @@ def _warn_dropped(scene, warned: set) -> None:
 
 def _render(args) -> int:
     """``motes render CACHE -o OUT``: draw a cache's frames with its scene."""
-    from ..io.cache import load_cache
+    from ..io.cache import DamagedCacheError, load_cache
     from ..io.frames import SequenceWriter, open_writer
     from ..scene import SceneError
     from ..scene.overrides import parse_assignment
@@ -493,6 +493,8 @@ def _render(args) -> int:
     farm = args.workers is not None or args.scheduler is not None
     if farm and output.suffix != "":
         raise UserError(f"--workers and --scheduler write a folder of PNG frames; got -o {output}")
+    if farm and (args.alpha or args.bits != 8):
+        raise UserError("--workers and --scheduler draw 8-bit frames without alpha, for now")
     if output.suffix == "" and (args.overwrite or not farm):
         _clear_frames(output, overwrite=args.overwrite)
     scene.renderer(resolution)  # a frame that would not fit in memory fails here
@@ -532,7 +534,8 @@ def _render(args) -> int:
                 progress.update(done)
         except KeyboardInterrupt:
             interrupted = True
-        except (SceneError, ReplayError) as error:  # a surface too wide, a cache mismatch
+        # a surface too wide, a cache mismatch, a damaged cache
+        except (SceneError, ReplayError, DamagedCacheError) as error:
             failure = UserError(f"{error} (after {done} frames)")
     if failure is not None:
         raise failure
@@ -549,6 +552,7 @@ def _render(args) -> int:
 
 def _render_farm(args, scene, indices, resolution, progress, overrides) -> int:
     """``motes render --workers N`` / ``--scheduler ADDRESS``: the frames on Dask."""
+    from ..io.cache import DamagedCacheError
     from ..scene import SceneError
     from ..scene.farm import FarmError, render_on_dask
     from ..scene.replay import ReplayError
@@ -571,7 +575,7 @@ def _render_farm(args, scene, indices, resolution, progress, overrides) -> int:
             file=sys.stderr,
         )
         return 130
-    except (FarmError, SceneError, ReplayError) as error:
+    except (FarmError, SceneError, ReplayError, DamagedCacheError) as error:
         progress.close()
         raise UserError(str(error)) from None
     progress.close()

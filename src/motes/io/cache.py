@@ -125,6 +125,13 @@ FORMAT = "motes-cache"
 VERSION = 3
 #: Cache file extensions (``.h5`` and ``.hdf5``: version 3; ``.npz``: version 2).
 SUFFIXES = (".h5", ".hdf5", ".npz")
+
+
+class DamagedCacheError(ValueError):
+    """A cache whose data cannot be read back (an ``.h5`` read lazily finds the damage
+    when a frame is asked for): the message names the file and the entry."""
+
+
 #: Format version 1's attribute names, in version 2's names.
 V1_NAMES = {
     "position": "positions",
@@ -443,7 +450,9 @@ class Cache:
         significant_digits: int | None = None,
         shapes: dict[str, dict[str, np.ndarray]] | None = None,
         close=None,
+        path: str = "the cache",
     ):
+        self.path = path
         self.times = times
         self.fps = fps
         self.overrides = dict(overrides or {})
@@ -534,7 +543,7 @@ class Cache:
             raise KeyError(
                 f"attribute {attribute!r} was not recorded; the cache has {list(arrays)}"
             )
-        return _read_only(arrays[attribute][()])
+        return self._rows(arrays[attribute], slice(None), f"{self._name(name)}/{attribute}")
 
     def frame(self, index: int, name: str | None = None) -> dict[str, np.ndarray]:
         """One frame's particles of entry ``name``, one row per particle.
@@ -554,7 +563,21 @@ class Cache:
         name = self._name(name)
         f = self._index(index)
         start, stop = self._offsets[name][f : f + 2]
-        return {a: _read_only(values[start:stop]) for a, values in self._arrays[name].items()}
+        rows = slice(start, stop)
+        return {
+            a: self._rows(values, rows, f"{name}/{a}") for a, values in self._arrays[name].items()
+        }
+
+    def _rows(self, values, rows: slice, key: str) -> np.ndarray:
+        """``values[rows]``, read-only; a lazily read ``.h5`` dataset that cannot be
+        decoded there raises :class:`DamagedCacheError` naming the file and ``key``."""
+        try:
+            return _read_only(values[rows])
+        except (OSError, ValueError) as error:
+            raise DamagedCacheError(
+                f"{self.path} is a damaged motes cache: {key}, rows {rows.start}:{rows.stop}: "
+                f"{error}"
+            ) from None
 
     def state(self, index: int, name: str | None = None) -> ParticleState:
         """One frame of entry ``name`` as the :class:`~motes.state.ParticleState` it was
@@ -584,8 +607,8 @@ class Cache:
         if "surface_offsets" in shapes:
             (v0, t0), (v1, t1) = shapes["surface_offsets"][f : f + 2]
             surface = (
-                _read_only(shapes["surface_vertices"][v0:v1]),
-                _read_only(shapes["surface_faces"][t0:t1]),
+                self._rows(shapes["surface_vertices"], slice(v0, v1), f"{name}/surface_vertices"),
+                self._rows(shapes["surface_faces"], slice(t0, t1), f"{name}/surface_faces"),
             )
         return Entry(
             self.state(index, name),
@@ -605,7 +628,8 @@ def load_cache(path) -> Cache:
     Parameters
     ----------
     path : str or os.PathLike
-        A cache file: ``.h5`` (read lazily, frame by frame) or ``.npz`` (read whole).
+        A cache file: ``.h5`` (read lazily, frame by frame: damage found then raises
+        :class:`DamagedCacheError`) or ``.npz`` (read whole).
 
     Returns
     -------
@@ -730,8 +754,9 @@ def _read(shown: str, keys: set[str], read, close) -> Cache:
             digits = int(get("significant_digits"))
             meta["significant_digits"] = digits if digits >= 0 else None
     return Cache(
-        times, offsets, arrays, fields, version=version, shapes=shapes, close=close, **meta
-    )
+        times, offsets, arrays, fields, version=version, shapes=shapes, close=close,
+        path=shown, **meta,
+    )  # fmt: skip
 
 
 def _read_only(values) -> np.ndarray:

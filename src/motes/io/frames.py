@@ -373,8 +373,9 @@ class _FfmpegWriter(FrameWriter):
         self._log = None
         self._failure: str | None = None
 
+    @abstractmethod
     def _command(self, width: int, height: int, output: Path) -> list[str]:
-        raise NotImplementedError
+        """ffmpeg's command line for frames of ``width`` x ``height`` into ``output``."""
 
     def _input(self, width: int, height: int, fps: float | None = None) -> list[str]:
         """ffmpeg's arguments up to its input: raw RGB frames on stdin at ``fps``
