@@ -9,7 +9,19 @@
 True
 """
 
-from . import colliders, constrain, fluids, geometry, io, render, rigid, scene, shapes, spatial
+from . import (
+    colliders,
+    constrain,
+    fluids,
+    geometry,
+    gridfluid,
+    io,
+    render,
+    rigid,
+    scene,
+    shapes,
+    spatial,
+)
 from ._memory import InsufficientMemoryError
 from ._version import __version__ as __version__
 from .cloth import Airflow, Cloth, Keyframes, SpringFamily
@@ -55,6 +67,10 @@ from .forces import (
     Wind,
 )
 from .geometry import TriangleMesh
+from .gridfluid import Buoyancy, Dissipation, GridFluid
+from .gridfluid import Solver as GridSolver
+from .gridfluid import Source as GridSource
+from .gridfluid import Wall as GridWall
 from .hair import Hair, Head
 from .hierarchy import SpawnOnEvent
 from .integrate import Integrator
@@ -87,6 +103,7 @@ __all__ = [
     "Attribute",
     "Background",
     "BodyShape",
+    "Buoyancy",
     "Burst",
     "CallbackForce",
     "Camera",
@@ -101,6 +118,7 @@ __all__ = [
     "CurlNoise",
     "Curve",
     "Direction",
+    "Dissipation",
     "DistanceFrom",
     "Distribution",
     "Drag",
@@ -115,6 +133,10 @@ __all__ = [
     "Function",
     "Gradient",
     "Gravity",
+    "GridFluid",
+    "GridSolver",
+    "GridSource",
+    "GridWall",
     "Hair",
     "Head",
     "ImplicitEuler",
@@ -165,6 +187,7 @@ __all__ = [
     "constrain",
     "fluids",
     "geometry",
+    "gridfluid",
     "io",
     "load_scene",
     "render",
