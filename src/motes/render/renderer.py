@@ -1,9 +1,10 @@
 """The renderer: background, opaque geometry and particle systems into one image.
 
-Order of drawing: the background; opaque geometry (which fills the depth buffer); then
-particle systems, alpha-blended ones first (each sorted back to front; systems ordered by
-their mean depth, far first) and additive ones last (order-independent). Colour is
-accumulated in linear light and tone-mapped to sRGB at the end.
+Order of drawing: the background; opaque geometry (which fills the depth buffer);
+volumes (:mod:`.volume`: ray-marched up to that depth); then particle systems,
+alpha-blended ones first (each sorted back to front; systems ordered by their mean depth,
+far first) and additive ones last (order-independent). Colour is accumulated in linear
+light and tone-mapped to sRGB at the end.
 
 Particles of any kind are read through their :class:`~motes.state.ParticleState`: a
 system, a liquid, a cloth, hair or a rigid world (anything with ``particle_state()``),
@@ -28,6 +29,7 @@ from .lighting import light_particles
 from .shadow_pass import prepare
 from .sprites import Blend, SpriteRasterizer, SpriteStyle
 from .tonemap import to_srgb8
+from .volume import Volume, draw_volumes, volume_shadowing
 
 _WHITE = np.ones((1, 4), dtype=np.float32)
 
@@ -119,7 +121,9 @@ class Renderer:
         with ``particle_state()`` (a :class:`~motes.system.ParticleSystem`, a liquid,
         cloth, hair, a rigid world) — or ``(particles, SpriteStyle)`` pairs; ``objects``
         opaque geometry (:class:`~motes.render.geometry.Ground`, ``Sphere``, ``Box``,
-        ``Mesh``, ``Lines``).
+        ``Mesh``, ``Lines``) and participating media (:class:`~motes.render.volume.Volume`:
+        drawn after the geometry, before the particles, whose colours then place them
+        behind, inside or in front of it; see :mod:`motes.render.volume`).
         """
         width, height = self.camera.resolution
         frame = Frame(width, height)
@@ -127,15 +131,23 @@ class Renderer:
             self.background.fill(frame)
         items = self._draw_order(systems)
         objects = list(objects)
-        shadowing = None
-        if objects or any(style.lit for _, _, style in items):
+        volumes = [o for o in objects if isinstance(o, Volume)]
+        if volumes:
+            objects = [o for o in objects if not isinstance(o, Volume)]
+        shadowing = shaded = None
+        if objects or volumes or any(style.lit for _, _, style in items):
             casting = [_opacity_of(state) for _, state, style in items if style.shadows]
-            shadowing = prepare(self.lights, casters(objects), self.camera, casting)
+            shadowing = shaded = prepare(self.lights, casters(objects), self.camera, casting)
+            if volumes:  # geometry and particles in the volumes' shadows too
+                shaded = volume_shadowing(shadowing, self.lights, casting, volumes)
         if objects:
             draw_geometry(
                 frame, self.camera, objects, lights=self.lights, supersample=self.supersample,
-                shadowing=shadowing,
+                shadowing=shaded,
             )  # fmt: skip
+        layer = None
+        if volumes:
+            layer = draw_volumes(frame, self.camera, volumes, shadowing, froxels=bool(items))
         for owner, state, style in items:
             # Keyed by the object passed in (a system lives across frames; a state is
             # taken anew each frame): its rasteriser keeps its scratch buffers.
@@ -145,10 +157,15 @@ class Renderer:
                 if len(self._rasterizers) > 64:
                     self._rasterizers.clear()
                 rasterizer = self._rasterizers[key] = SpriteRasterizer(style)
-            colors = _lit_colors(state, shadowing) if style.lit else None
+            colors = _lit_colors(state, shaded) if style.lit else None
+            if layer is not None:
+                colors = _colors(state) if colors is None else colors
+                colors = layer.through(self.camera, state.positions.T, colors, style)
             draw_system(frame, self.camera, state, rasterizer, colors=colors)
         if transparent:
             frame.alpha = self._coverage(frame, items)
+            if layer is not None:
+                frame.alpha = layer.cover(frame.alpha)
         return frame
 
     def _coverage(self, frame: Frame, items) -> np.ndarray:
