@@ -155,8 +155,8 @@ def test_syntax_errors_and_missing_files_are_scene_errors():
         load_scene("[scene\nduration = 1\n")
     with pytest.raises(SceneError, match="scene file not found"):
         load_scene("does/not/exist.toml")
-    with pytest.raises(SceneError, match=r"no built-in scene 'campfire'.*built-in: "):
-        load_scene("campfire")
+    with pytest.raises(SceneError, match=r"no built-in scene 'bonfire'.*built-in: "):
+        load_scene("bonfire")
 
 
 @pytest.mark.slow

@@ -30,10 +30,11 @@ def check_common(scene):
 # rain, waterfall and fish_school keep tests of their own (test_rain_*, test_waterfall_*,
 # test_flock_scene); planets' placements and light are tested in test_nbody and
 # test_scene_files; grains' collisions in test_particle_collisions; smoke and snow load
-# in test_scene_files (their lighting: test_shadows; snow: test_snow_settles_*).
+# in test_scene_files (their lighting: test_shadows; snow: test_snow_settles_*); the grid
+# fluid scenes' body, flow and sources are tested on a small grid in test_gridfluid_scene.
 SLOW_SCENES = {
     "floating", "rain_on_flag", "explosion", "box_tower", "galaxies", "rain", "fish_school",
-    "waterfall", "planets", "grains", "smoke", "snow",
+    "waterfall", "planets", "grains", "smoke", "snow", "smoke_plume", "campfire",
 }  # fmt: skip
 
 

@@ -67,7 +67,7 @@ from .forces import (
     Wind,
 )
 from .geometry import TriangleMesh
-from .gridfluid import Buoyancy, Dissipation, GridFluid
+from .gridfluid import Buoyancy, Dissipation, GridFlow, GridFluid
 from .gridfluid import Solver as GridSolver
 from .gridfluid import Source as GridSource
 from .gridfluid import Wall as GridWall
@@ -133,6 +133,7 @@ __all__ = [
     "Function",
     "Gradient",
     "Gravity",
+    "GridFlow",
     "GridFluid",
     "GridSolver",
     "GridSource",

@@ -1,6 +1,7 @@
 """Grid fluids: Stam's stable fluids on a staggered grid, with buoyancy, vorticity
 confinement, viscosity, obstacles and sources (:class:`GridFluid`)."""
 
+from .coupling import GridFlow, ParticleSource
 from .fluid import GridFluid
 from .model import Advection, Buoyancy, Dissipation, Solver, Wall
 from .pressure import PoissonSolver, SolveReport
@@ -10,7 +11,9 @@ __all__ = [
     "Advection",
     "Buoyancy",
     "Dissipation",
+    "GridFlow",
     "GridFluid",
+    "ParticleSource",
     "PoissonSolver",
     "SolveReport",
     "Solver",

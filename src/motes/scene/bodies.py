@@ -72,6 +72,19 @@ class Body(ABC):
         the key of a bad reference. Most bodies refer to none."""
         return None
 
+    def link_systems(self, systems: dict) -> None:
+        """Resolve references to the scene's emitter systems by name (``systems``: name
+        -> :class:`~motes.system.ParticleSystem`), once all are built. Most bodies refer
+        to none."""
+        return None
+
+    def flow(self, path: str, options: dict):
+        """The force a ``[[system.force]] type = "grid_flow"`` at ``path`` naming this body
+        adds to its system; only grid fluids have a flow to ride."""
+        raise SceneError(
+            path, f"a grid_flow force needs a grid_fluid body, not a {type(self).__name__}"
+        )
+
     def contact(self, path: str, name: str, options: dict):
         """A contact an emitter system's particles have with this body (a
         :class:`~motes.collide.between.KindContact`), from a ``[[system.contact]]`` table
@@ -106,6 +119,7 @@ _BODY_MODULES: tuple[str, ...] = (
     "motes.scene.body_cloth",
     "motes.scene.body_flock",
     "motes.scene.body_fluids",
+    "motes.scene.body_gridfluid",
     "motes.scene.body_rigid",
     "motes.scene.body_rigid_world",
 )

@@ -563,6 +563,7 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
     looks: dict[str, ParticleLook] = {}
     pending_children = []
     pending_contacts = []
+    pending_flows = []
     for t, seq in zip(system_tables, seeds[: len(system_tables)], strict=True):
         system_name = t.get("name", string)
         if system_name in systems:
@@ -579,7 +580,10 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         for e in t.tables("emitter"):
             system.add(parts.emitter(e, camera, base))
         for f in t.tables("force"):
-            system.add(parts.force(f))
+            if f.data.get("type") == "grid_flow":  # rides a body's flow: after the bodies
+                pending_flows.append((system, f))
+            else:
+                system.add(parts.force(f))
         for p in t.tables("particles"):
             parts.place_particles(p, system)
         for m in t.tables("modifier"):
@@ -626,6 +630,9 @@ def _build_scene(root: Table, origin: str, base: Path, seed_override) -> Scene:
         bodies[body_name] = body
     for body in bodies.values():
         body.link(bodies)
+        body.link_systems(systems)
+    for system, f in pending_flows:
+        system.add(_flow(f, bodies))
 
     for system_name, system, c in pending_contacts:
         system.add(_contact(c, bodies, system_name))
@@ -666,6 +673,15 @@ def _contact(table: Table, bodies: dict[str, Body], system_name: str):
         if error.path != table.path:
             raise
         raise SceneError(error.path, f"system {system_name!r}: {error.message}") from None
+
+
+def _flow(table: Table, bodies: dict[str, Body]):
+    """A ``[[system.force]] type = "grid_flow"``: drag toward a grid fluid's velocity."""
+    table.get("type", string)
+    name = table.get("body", one_of(*bodies) if bodies else _no_bodies)
+    options = {"response_time": table.get("response_time", positive(), 0.1)}
+    table.finish()
+    return bodies[name].flow(table.path, options)
 
 
 def _no_bodies(value, path):
