@@ -168,3 +168,12 @@ def test_the_api_reference_builds(tmp_path):
     page = (tmp_path / "motes" / "system.html").read_text()
     # The class, a parameter from its NumPy-style docstring, and a unit in brackets.
     assert "ParticleSystem" in page and "capacity" in page and "[m/s]" in page
+
+
+@pytest.mark.slow  # a 64 x 96 x 64 grid for 3 s: about 20 s
+def test_grid_fluids_guide_examples_run():
+    namespace = run_blocks(DOCS / "grid-fluids.md")
+    smoke = namespace["smoke"]
+    assert smoke.density.shape == (64, 96, 64)
+    assert smoke.density[:, 40:].sum() > 0.1 * smoke.density.sum()  # risen past 2 m
+    assert smoke.last_solve.converged

@@ -236,9 +236,10 @@ def test_mass_is_kept_by_closed_walls_within_the_stated_budget():
         for _ in range(50):
             fluid.step(1 / 100)
         losses[scheme] = abs(fluid.density.sum(dtype=np.float64) / start - 1) / 50
+    # measured per step: 8.0e-4, 9.9e-5, 1.8e-5
     assert losses["semi-lagrangian"] < 2e-3, losses
-    assert losses["maccormack"] < 2e-3, losses
-    assert losses["bfecc"] < 2e-3, losses
+    assert losses["maccormack"] < 3e-4, losses
+    assert losses["bfecc"] < 1e-4, losses
 
 
 def _run_small():

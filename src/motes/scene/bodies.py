@@ -59,6 +59,11 @@ class Body(ABC):
 
     #: Whether :meth:`show` can draw the body from a cached frame.
     replayable = False
+    #: Why not, when it cannot (the error ``motes render`` gives).
+    not_replayable = (
+        "a trail is a path over the last steps, which a cache does not hold (draw it "
+        "without trails)"
+    )
 
     def show(self, entry: Entry, time: float) -> None:
         """Put a cached frame's particles (``entry``, as :meth:`entry` recorded them at

@@ -39,6 +39,8 @@ _WALLS = ("open", "closed", "no-slip")
 class GridFluidBody(Body):
     """A :class:`~motes.gridfluid.GridFluid` in a scene, drawn as a volume."""
 
+    not_replayable = "a grid fluid's density and temperature are not in particle caches"
+
     def __init__(self, fluid: gf.GridFluid, *, look: dict | None, pending: list, max_dt: float,
                  fade: int = 0):  # fmt: skip
         self.fluid = fluid

@@ -53,15 +53,14 @@ class Replay:
                 f"{', '.join(missing)}, which it does not (was it exported from this scene?)"
             )
         unsupported = [
-            f"{name!r} ({type(body).__name__})"
+            f"{name!r} ({type(body).__name__}: {body.not_replayable})"
             for name, body in scene.bodies.items()
             if not body.replayable
         ]
         if unsupported:
             raise ReplayError(
                 f"scene {scene.name!r} has bodies that cannot be drawn from a cache yet: "
-                f"{', '.join(unsupported)}: a trail is a path over the last steps, which a "
-                "cache does not hold (draw it without trails, or run it again)"
+                f"{', '.join(unsupported)}; run the scene again instead"
             )
         self._drawn = drawn
 
