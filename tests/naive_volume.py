@@ -321,3 +321,14 @@ def froxel_lookup(grid: np.ndarray, x0, y0, factor, z0, dz, sx, sy, depth) -> np
         weight = np.prod([f if c else 1 - f for f, c in zip(frac, corner, strict=True)])
         total += weight * grid[lower[0] + corner[0], lower[1] + corner[1], lower[2] + corner[2]]
     return total
+
+
+def box_blur_xz(values: np.ndarray, radius: int) -> np.ndarray:
+    """A box filter of ``2 radius + 1`` voxels along x, then z, edges clamped."""
+    out = np.asarray(values, np.float64)
+    for axis in (0, 2):
+        n = out.shape[axis]
+        taps = [np.take(out, np.clip(np.arange(n) + d, 0, n - 1), axis=axis) for d in
+                range(-radius, radius + 1)]  # fmt: skip
+        out = np.mean(taps, axis=0)
+    return out

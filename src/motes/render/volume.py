@@ -75,6 +75,7 @@ from .volume_kernels import (
 from .volume_light import (
     BRICK,
     POINT_GRID,
+    blur_xz,
     brick_distances,
     brick_maxima,
     columns,
@@ -94,6 +95,10 @@ __all__ = [
     "draw_volumes",
     "volume_shadowing",
 ]
+
+#: Half-width [voxels] of the box filter (run twice) over the ambient light's column
+#: transmittances: the sky is seen through a cone about 9 voxels across.
+AMBIENT_BLUR = 4
 
 #: Largest leap [bricks] over empty space recorded in the brick distances.
 LEAP_CAP = 64
@@ -327,8 +332,15 @@ def light_volume(volume: Volume, shadowing: Shadowing) -> LitVolume:
     if has_ambient and volume.shadows:
         below = np.empty(volume.shape, np.float32)
         columns(volume.density, 0.5 * volume.extinction * volume.cell_size, tau, below)
-        grid[..., ch] = _transmittance(tau)
-        grid[..., ch + 1] = _transmittance(below)
+        # The sky and the ground are seen through a wide cone, not one column: one
+        # column each makes dark vertical streaks under every dense puff.
+        up, down = _transmittance(tau), _transmittance(below)
+        scratch = np.empty_like(up)
+        for _ in range(2):
+            blur_xz(up, AMBIENT_BLUR, scratch)
+            blur_xz(down, AMBIENT_BLUR, scratch)
+        grid[..., ch] = up
+        grid[..., ch + 1] = down
     elif has_ambient:
         grid[..., ch : ch + 2] = 1.0
     ch += 2 * int(has_ambient)

@@ -206,6 +206,32 @@ def columns(rho, half, above, below):
                 below[i, j, k] = below[i, j - 1, k] + half * (rho[i, j, k] + rho[i, j - 1, k])
 
 
+@parallel_kernel
+def blur_xz(values, radius, scratch):
+    """Box-filter ``values`` (nx, ny, nz) along x, then z, in each horizontal plane
+    (``2 radius + 1`` voxels, clamped at the edges; ``scratch`` of the same shape). Run
+    twice it approaches a Gaussian: the sky seen through a cone, not one column."""
+    nx, ny, nz = values.shape
+    width = 1.0 / (2 * radius + 1)
+    for j in numba.prange(ny):
+        for k in range(nz):  # a sliding sum along x: two terms a voxel
+            acc = 0.0
+            for d in range(-radius, radius + 1):
+                acc += values[min(max(d, 0), nx - 1), j, k]
+            for i in range(nx):
+                scratch[i, j, k] = acc * width
+                acc += values[min(i + radius + 1, nx - 1), j, k]
+                acc -= values[max(i - radius, 0), j, k]
+        for i in range(nx):  # then along z
+            acc = 0.0
+            for d in range(-radius, radius + 1):
+                acc += scratch[i, j, min(max(d, 0), nz - 1)]
+            for k in range(nz):
+                values[i, j, k] = acc * width
+                acc += scratch[i, j, min(k + radius + 1, nz - 1)]
+                acc -= scratch[i, j, max(k - radius, 0)]
+
+
 @device
 def needed(bricks, size, i, j, k):
     """Whether a sample in a non-empty brick may read voxel ``(i, j, k)``: one of the
