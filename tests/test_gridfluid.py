@@ -305,3 +305,38 @@ def test_bad_source_and_wall_values_are_refused():
         Wall(velocity=(0, float("inf"), 0))
     with pytest.raises(ValueError, match="dt"):
         GridFluid((8, 8), 0.1).step(0.0)
+
+
+def test_a_timed_noisy_source_acts_only_in_its_window_and_repeats_with_its_seed():
+    def run(seed, noise=0.8):
+        fluid = GridFluid((16, 16), 0.1)
+        fluid.add(Source((0.8, 0.8, 0.05), 0.5, density=10.0, start=0.05, stop=0.15,
+                         noise=noise, turbulence=2.0, expansion=3.0, pull=20.0, seed=seed))  # fmt: skip
+        totals = []
+        for step in range(8):
+            fluid.step(0.025)
+            totals.append(float(fluid.density.sum()))
+            if step == 3:  # t = 0.1 s, while the source acts
+                fluid.blast = fluid.u.copy()
+        return fluid, totals
+
+    fluid, totals = run(1)
+    assert totals[0] == 0.0 and totals[1] == 0.0  # t < start
+    assert totals[2] > 0.0
+    assert totals[-1] == pytest.approx(totals[-2], rel=0.05)  # after stop: only carried
+    again, _ = run(1)
+    np.testing.assert_array_equal(fluid.density, again.density)
+    other, _ = run(2)
+    assert not np.array_equal(fluid.density, other.density)
+    smooth, smooth_totals = run(1, noise=0.0)
+    # noise of zero mean: about the same amount injected (within its spread)
+    assert totals[-1] == pytest.approx(smooth_totals[-1], rel=0.15)
+    # the blast pushes outward: flow away from the centre on both sides
+    assert fluid.blast[0, 8, 4] < 0.0 < fluid.blast[0, 8, 12]
+
+
+def test_source_options_are_checked():
+    with pytest.raises(ValueError, match="source noise"):
+        Source((0, 0, 0), 1.0, noise=2.0)
+    with pytest.raises(ValueError, match="source stop"):
+        Source((0, 0, 0), 1.0, start=2.0, stop=1.0)

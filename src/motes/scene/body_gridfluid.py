@@ -190,13 +190,19 @@ def build_grid_fluid(table: Table, context: BuildContext) -> GridFluidBody:
         walls=_walls(table.table("walls", optional=True)),
         obstacles=obstacles, solver=solver,
     )  # fmt: skip
-    for item in table.tables("source"):
+    for index, item in enumerate(table.tables("source")):
         temperature = item.get("temperature", positive(), None)
         source = build(
             item.path, gf.Source, item.get("center", vector()), item.get("radius", positive()),
             density=item.get("density", number(0.0), 1.0), temperature=temperature,
             velocity=item.get("velocity", vector(), (0.0, 0.0, 0.0)),
             pull=item.get("pull", number(0.0), 0.0),
+            expansion=item.get("expansion", number(), 0.0),
+            start=item.get("start", number(0.0), 0.0),
+            stop=item.get("stop", number(0.0), float("inf")),
+            noise=item.get("noise", number(0.0, 1.0), 0.0),
+            turbulence=item.get("turbulence", number(0.0), 0.0),
+            seed=index + context.seed % 1_000_000,
         )  # fmt: skip
         item.finish()
         fluid.add(source)
