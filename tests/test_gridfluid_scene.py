@@ -129,3 +129,46 @@ def test_grid_flow_needs_a_grid_fluid_body():
     text = SCENE.split("[[body]]")[0] + ('[[body]]\nname = "air"\ntype = "fluid"\nspacing = 0.05\n')
     with pytest.raises(SceneError, match="grid_fluid"):
         load_scene(text)
+
+
+CLOUDS = """
+[scene]
+duration = 1.0
+fps = 10
+
+[camera]
+position = [0.0, 20.0, 0.0]
+target = [0.0, 400.0, -2000.0]
+far = 10000.0
+resolution = [64, 40]
+
+[[body]]
+name = "sky"
+type = "clouds"
+resolution = [48, 12, 32]
+cell_size = 50.0
+origin = [-1200.0, 300.0, -2000.0]
+base_height = 350.0
+top_height = 800.0
+scale = 600.0
+coverage = 0.6
+wind = [20.0, 0.0, 0.0]
+
+  [body.render]
+  extinction = 0.2
+"""
+
+
+def test_a_clouds_body_draws_procedural_clouds_drifting_with_the_wind():
+    scene = load_scene(CLOUDS)
+    sky = scene.bodies["sky"]
+    assert sky.density.shape == (32, 12, 48) and sky.density.max() > 0.0
+    first = sky.drawables()[0]
+    for _ in range(5):
+        scene.advance()
+    moved = sky.drawables()[0]
+    # 0.5 s of a 20 m/s wind along x
+    np.testing.assert_allclose(moved.origin - first.origin, [10.0, 0.0, 0.0], atol=1e-9)
+    assert scene.render().std() > 2  # clouds against the sky, not one flat colour
+    with pytest.raises(SceneError, match="coverage"):
+        load_scene(CLOUDS.replace("coverage = 0.6", "coverage = 1.6"))

@@ -34,7 +34,7 @@ def check_common(scene):
 # fluid scenes' body, flow and sources are tested on a small grid in test_gridfluid_scene.
 SLOW_SCENES = {
     "floating", "rain_on_flag", "explosion", "box_tower", "galaxies", "rain", "fish_school",
-    "waterfall", "planets", "grains", "smoke", "snow", "smoke_plume", "campfire",
+    "waterfall", "planets", "grains", "smoke", "snow", "smoke_plume", "campfire", "clouds",
 }  # fmt: skip
 
 

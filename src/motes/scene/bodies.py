@@ -122,6 +122,7 @@ BODY_TYPES: dict[str, Builder] = {}
 # bodies does not import (or compile) the solvers.
 _BODY_MODULES: tuple[str, ...] = (
     "motes.scene.body_cloth",
+    "motes.scene.body_clouds",
     "motes.scene.body_flock",
     "motes.scene.body_fluids",
     "motes.scene.body_gridfluid",
