@@ -115,7 +115,7 @@ def test_progress_and_summary_unless_quiet(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["run", "campfire"], "no built-in scene 'campfire'"),
+        (["run", "bonfire"], "no built-in scene 'bonfire'"),
         (["run", "fire", "-o", "out.avi"], "-o must end in .mp4, .gif, .png or .exr"),
         (["run", "fire", "-o", "no/such/dir/out.mp4"], "output directory does not exist"),
         (["run", "fire", "--export", "no/such/dir/c.npz"], "export directory does not exist"),

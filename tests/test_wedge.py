@@ -125,8 +125,8 @@ def test_mistakes_are_one_line(tmp_path, scene, capsys, extra, message):
     err = capsys.readouterr().err
     assert err.startswith("motes: error: ") and message in err and err.count("\n") == 1
     assert not (tmp_path / "w").exists()
-    assert cli("wedge", "campfire", "--set", "scene.seed=1,2", "-o", tmp_path / "w") == 2
-    assert "no built-in scene 'campfire'" in capsys.readouterr().err
+    assert cli("wedge", "bonfire", "--set", "scene.seed=1,2", "-o", tmp_path / "w") == 2
+    assert "no built-in scene 'bonfire'" in capsys.readouterr().err
     (tmp_path / "file").write_text("")
     assert cli("wedge", scene, "--set", "scene.seed=1,2", "-o", tmp_path / "file") == 2
     assert "-o must be a folder" in capsys.readouterr().err
