@@ -227,7 +227,7 @@ def test_rigid_bodies_and_floating_boxes_draw_where_the_cache_holds_them(tmp_pat
 
 def test_a_rigid_world_with_trails_is_refused_by_name(tmp_path):
     scene = load_scene("swept_vs_posteriori")
-    with pytest.raises(ReplayError, match=r"'shots' \(RigidScene\)"):
+    with pytest.raises(ReplayError, match=r"'shots' \(RigidScene: a trail is a path"):
         Replay(scene, cache_of(scene, tmp_path / "trails.npz"))
 
 
