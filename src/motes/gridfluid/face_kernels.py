@@ -4,7 +4,9 @@ divergence, the pressure gradient, buoyancy and vorticity confinement.
 A face grid of axis ``a`` (0 = x, 1 = y, 2 = z) has one more face than cells along
 ``a``: face ``(k, j, i)`` of the x grid lies between cells ``(k, j, i - 1)`` and
 ``(k, j, i)``. Arrays are ``(nz, ny, nx)``-shaped, x fastest, and every kernel runs
-``prange`` over rows ``(k, j)``.
+``prange`` over rows ``(k, j)``, working along the row in loops that vectorise: the face
+kernels at flat offsets (:func:`_face_row`) into views of whole arrays taken once per
+call, so that no view is made per row (each costs an atomic reference count update).
 
 Boundaries: ``solid`` (nz, ny, nx) uint8 marks obstacle cells, moving at
 ``solid_velocity`` (3, nz, ny, nx) [m/s]; ``open_faces`` (6,) uint8 marks the open faces
@@ -18,17 +20,37 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from .._jit import device, parallel_kernel
+from .._jit import called, device, parallel_kernel
 
 
-@device
-def _neighbours(axis, k, j, i):
-    """Cell index of the 'left' cell of face (k, j, i) along ``axis``."""
+@called
+def _face_row(axis, row, fz, fy, ny, nx):
+    """Where face row ``row`` (flat index of (k, j)) of the face grid of ``axis`` lies, and
+    its interior faces.
+
+    Returns ``where`` (-1 on the domain's lower face, 1 on its upper one, 0 inside; the
+    x grid's rows are inside, their first and last face on the domain's faces), then flat
+    offsets (uint64): of the row's first interior face, of the cell below it along
+    ``axis`` and of the cell above, and the count ``m`` of interior faces. An x face
+    ``i`` lies between cells ``i - 1`` and ``i`` of its row, a y or z face between cell
+    ``i`` of two rows; at ``where`` -1 the cell offset is that of the row above the
+    face, at 1 of the row below.
+    """
+    k = row // fy
+    j = row - k * fy
+    face = np.uint64(row * (nx + 1 if axis == 0 else nx))
     if axis == 0:
-        return k, j, i - 1
-    if axis == 1:
-        return k, j - 1, i
-    return k - 1, j, i
+        cells = np.uint64((k * ny + j) * nx)
+        return 0, face + np.uint64(1), cells, cells + np.uint64(1), nx - 1
+    index, n = (j, fy - 1) if axis == 1 else (k, fz - 1)
+    where = -1 if index == 0 else (1 if index == n else 0)
+    above = (k * ny + j) * nx  # the cell row (k, j), above the face along axis
+    below = above - (nx if axis == 1 else ny * nx)
+    if where < 0:
+        below = above
+    elif where > 0:
+        above = below
+    return where, face, np.uint64(below), np.uint64(above), nx
 
 
 @parallel_kernel
@@ -36,30 +58,37 @@ def enforce_boundaries(face, axis, solid, solid_velocity, open_faces, wall_veloc
     """Set the faces the flow may not cross: a closed domain face takes its wall's
     normal velocity, a face beside a solid cell the solid's (their mean between two).
     Faces of open domain faces are left to the pressure solve."""
-    nz, ny, nx = solid.shape
-    fz, fy, fx = face.shape
-    n_axis = (nx, ny, nz)[axis]
+    _, ny, nx = solid.shape
+    fz, fy, _ = face.shape
+    closed_lo, closed_hi = not open_faces[2 * axis], not open_faces[2 * axis + 1]
+    wall_lo, wall_hi = wall_velocity[2 * axis, axis], wall_velocity[2 * axis + 1, axis]
+    fs, ss, vs = face.ravel(), solid.ravel(), solid_velocity[axis].ravel()
     for row in prange(fz * fy):
-        k = row // fy
-        j = row - k * fy
-        for i in range(fx):
-            index = (i, j, k)[axis]
-            if index == 0 or index == n_axis:
-                side = 2 * axis + (0 if index == 0 else 1)
-                if not open_faces[side]:
-                    face[k, j, i] = wall_velocity[side, axis]
-                continue
-            lk, lj, li = _neighbours(axis, k, j, i)
-            left = solid[lk, lj, li]
-            right = solid[k, j, i]
-            if left and right:
-                face[k, j, i] = 0.5 * (
-                    solid_velocity[axis, lk, lj, li] + solid_velocity[axis, k, j, i]
-                )
-            elif left:
-                face[k, j, i] = solid_velocity[axis, lk, lj, li]
-            elif right:
-                face[k, j, i] = solid_velocity[axis, k, j, i]
+        where, f, below, above, m = _face_row(axis, row, fz, fy, ny, nx)
+        if axis == 0:  # the row's ends
+            if closed_lo:
+                fs[f - np.uint64(1)] = wall_lo
+            if closed_hi:
+                fs[f + np.uint64(m)] = wall_hi
+        if where != 0:
+            if closed_lo if where < 0 else closed_hi:
+                wall = wall_lo if where < 0 else wall_hi
+                for i in range(np.uint64(m)):
+                    fs[f + i] = wall
+            continue
+        hit = 0
+        for i in range(np.uint64(m)):
+            hit |= ss[below + i] | ss[above + i]
+        if hit == 0:  # no solid beside the row
+            continue
+        for i in range(np.uint64(m)):
+            a, b = ss[below + i], ss[above + i]
+            if a and b:
+                fs[f + i] = np.float32(0.5) * (vs[below + i] + vs[above + i])
+            elif a:
+                fs[f + i] = vs[below + i]
+            elif b:
+                fs[f + i] = vs[above + i]
 
 
 @parallel_kernel
@@ -85,23 +114,28 @@ def subtract_gradient(face, axis, q, solid, open_faces):
     """``face -= q_right - q_left`` across every face between two fluid cells, and across
     open domain faces (``q`` = 0 beyond them). ``q`` is the pressure in velocity units
     (``p dt / (rho h)``) that :class:`motes.gridfluid.pressure.PoissonSolver` returns."""
-    nz, ny, nx = solid.shape
-    fz, fy, fx = face.shape
-    n_axis = (nx, ny, nz)[axis]
+    _, ny, nx = solid.shape
+    fz, fy, _ = face.shape
+    open_lo, open_hi = open_faces[2 * axis], open_faces[2 * axis + 1]
+    fs, qs, ss = face.ravel(), q.ravel(), solid.ravel()
     for row in prange(fz * fy):
-        k = row // fy
-        j = row - k * fy
-        for i in range(fx):
-            index = (i, j, k)[axis]
-            lk, lj, li = _neighbours(axis, k, j, i)
-            if index == 0:
-                if open_faces[2 * axis] and not solid[k, j, i]:
-                    face[k, j, i] -= q[k, j, i]
-            elif index == n_axis:
-                if open_faces[2 * axis + 1] and not solid[lk, lj, li]:
-                    face[k, j, i] += q[lk, lj, li]
-            elif not solid[lk, lj, li] and not solid[k, j, i]:
-                face[k, j, i] -= q[k, j, i] - q[lk, lj, li]
+        where, f, below, above, m = _face_row(axis, row, fz, fy, ny, nx)
+        if axis == 0:  # the row's ends: q = 0 beyond an open face
+            last = below + np.uint64(m)
+            if open_lo and not ss[below]:
+                fs[f - np.uint64(1)] -= qs[below]
+            if open_hi and not ss[last]:
+                fs[f + np.uint64(m)] += qs[last]
+        if where == 0:
+            for i in range(np.uint64(m)):
+                g = fs[f + i] - (qs[above + i] - qs[below + i])
+                fs[f + i] = g if (ss[below + i] | ss[above + i]) == 0 else fs[f + i]
+        elif open_lo if where < 0 else open_hi:
+            # the gradient 0 - q across the lower face, q - 0 across the upper one
+            sign = np.float32(where)
+            for i in range(np.uint64(m)):
+                g = fs[f + i] + sign * qs[above + i]
+                fs[f + i] = g if ss[above + i] == 0 else fs[f + i]
 
 
 @parallel_kernel
@@ -109,21 +143,16 @@ def add_cell_force(face, axis, force, scale, solid):
     """``face += scale * (mean of force over the two cells beside it)`` on interior faces
     between fluid cells; ``force`` (nz, ny, nx) per cell (an acceleration [m/s²] with
     ``scale = dt``)."""
-    nz, ny, nx = solid.shape
-    fz, fy, fx = face.shape
-    n_axis = (nx, ny, nz)[axis]
-    half = 0.5 * scale
+    _, ny, nx = solid.shape
+    fz, fy, _ = face.shape
+    half = np.float32(0.5 * scale)
+    fs, a, ss = face.ravel(), force.ravel(), solid.ravel()
     for row in prange(fz * fy):
-        k = row // fy
-        j = row - k * fy
-        for i in range(fx):
-            index = (i, j, k)[axis]
-            if index == 0 or index == n_axis:
-                continue
-            lk, lj, li = _neighbours(axis, k, j, i)
-            if solid[lk, lj, li] or solid[k, j, i]:
-                continue
-            face[k, j, i] += half * (force[lk, lj, li] + force[k, j, i])
+        where, f, below, above, m = _face_row(axis, row, fz, fy, ny, nx)
+        if where == 0:
+            for i in range(np.uint64(m)):
+                g = fs[f + i] + half * (a[below + i] + a[above + i])
+                fs[f + i] = g if (ss[below + i] | ss[above + i]) == 0 else fs[f + i]
 
 
 @parallel_kernel
@@ -155,22 +184,24 @@ def cell_velocity(u, v, w, out):
 
 
 @device
-def _difference(f, c, k, j, i, axis, nz, ny, nx):
-    """Derivative of component ``c`` of ``f`` along ``axis`` at a cell, per cell:
-    central inside, one-sided at the domain's edge (0 along an axis of one cell)."""
-    n = (nx, ny, nz)[axis]
-    index = (i, j, k)[axis]
-    if n == 1:
-        return 0.0
-    lo = max(index - 1, 0)
-    hi = min(index + 1, n - 1)
-    if axis == 0:
-        a, b = f[c, k, j, lo], f[c, k, j, hi]
-    elif axis == 1:
-        a, b = f[c, k, lo, i], f[c, k, hi, i]
-    else:
-        a, b = f[c, lo, j, i], f[c, hi, j, i]
-    return (b - a) / (hi - lo)
+def _across(n, index):
+    """Neighbours (lower, upper) of ``index`` on an axis of ``n`` cells, clamped, and the
+    reciprocal of their distance [1/cells] (0 along an axis of one cell: no derivative):
+    central differences inside, one-sided at the domain's edge."""
+    lower, upper = max(index - 1, 0), min(index + 1, n - 1)
+    return lower, upper, np.float32(1.0 / (upper - lower)) if upper > lower else np.float32(0.0)
+
+
+@device
+def _add_x_derivative(f, scale, out):
+    """``out += scale * df/dx`` along a row ``f`` (per cell; central inside, one-sided at
+    the ends; ``f`` has at least two cells)."""
+    n = f.shape[0]
+    half = np.float32(0.5) * scale
+    out[0] += scale * (f[1] - f[0])
+    for i in range(1, n - 1):
+        out[i] += half * (f[i + 1] - f[i - 1])
+    out[n - 1] += scale * (f[n - 1] - f[n - 2])
 
 
 @parallel_kernel
@@ -178,23 +209,25 @@ def vorticity(velocity, inv_h, out):
     """Vorticity ``curl u`` [1/s] at cell centres into ``out[0:3]`` and its magnitude into
     ``out[3]``, from cell-centred ``velocity`` (3, nz, ny, nx)."""
     _, nz, ny, nx = velocity.shape
+    c = np.float32(inv_h)
     for row in prange(nz * ny):
         k = row // ny
         j = row - k * ny
+        jm, jp, cy = _across(ny, j)
+        km, kp, cz = _across(nz, k)
+        cy *= c
+        cz *= c
+        vx, vy, vz = velocity[0], velocity[1], velocity[2]
+        ox, oy, oz = out[0, k, j], out[1, k, j], out[2, k, j]
         for i in range(nx):
-            wx = _difference(velocity, 2, k, j, i, 1, nz, ny, nx) - _difference(
-                velocity, 1, k, j, i, 2, nz, ny, nx
-            )
-            wy = _difference(velocity, 0, k, j, i, 2, nz, ny, nx) - _difference(
-                velocity, 2, k, j, i, 0, nz, ny, nx
-            )
-            wz = _difference(velocity, 1, k, j, i, 0, nz, ny, nx) - _difference(
-                velocity, 0, k, j, i, 1, nz, ny, nx
-            )
-            out[0, k, j, i] = wx * inv_h
-            out[1, k, j, i] = wy * inv_h
-            out[2, k, j, i] = wz * inv_h
-            out[3, k, j, i] = np.sqrt(wx * wx + wy * wy + wz * wz) * inv_h
+            ox[i] = cy * (vz[k, jp, i] - vz[k, jm, i]) - cz * (vy[kp, j, i] - vy[km, j, i])
+            oy[i] = cz * (vx[kp, j, i] - vx[km, j, i])
+            oz[i] = -cy * (vx[k, jp, i] - vx[k, jm, i])
+        _add_x_derivative(vz[k, j], -c, oy)
+        _add_x_derivative(vy[k, j], c, oz)
+        magnitude = out[3, k, j]
+        for i in range(nx):
+            magnitude[i] = np.sqrt(ox[i] * ox[i] + oy[i] * oy[i] + oz[i] * oz[i])
 
 
 @parallel_kernel
@@ -203,24 +236,27 @@ def confinement(omega, strength, h, out):
     eq. 9-11): ``strength * h * (N x omega)`` with ``N`` the unit gradient of
     ``|omega|``; ``omega`` (4, nz, ny, nx) from :func:`vorticity`."""
     _, nz, ny, nx = omega.shape
+    size = omega[3]
+    scale = np.float32(strength * h)
     for row in prange(nz * ny):
         k = row // ny
         j = row - k * ny
+        jm, jp, cy = _across(ny, j)
+        km, kp, cz = _across(nz, k)
+        gx, gy, gz = out[0, k, j], out[1, k, j], out[2, k, j]
+        for i in range(nx):  # the gradient of |omega| [per cell], in out for now
+            gx[i] = 0.0
+            gy[i] = cy * (size[k, jp, i] - size[k, jm, i])
+            gz[i] = cz * (size[kp, j, i] - size[km, j, i])
+        _add_x_derivative(size[k, j], np.float32(1.0), gx)
+        wx, wy, wz = omega[0, k, j], omega[1, k, j], omega[2, k, j]
         for i in range(nx):
-            gx = _difference(omega, 3, k, j, i, 0, nz, ny, nx)
-            gy = _difference(omega, 3, k, j, i, 1, nz, ny, nx)
-            gz = _difference(omega, 3, k, j, i, 2, nz, ny, nx)
-            norm = np.sqrt(gx * gx + gy * gy + gz * gz)
-            if norm < 1e-12:
-                out[0, k, j, i] = 0.0
-                out[1, k, j, i] = 0.0
-                out[2, k, j, i] = 0.0
-                continue
-            s = strength * h / norm
-            wx, wy, wz = omega[0, k, j, i], omega[1, k, j, i], omega[2, k, j, i]
-            out[0, k, j, i] = s * (gy * wz - gz * wy)
-            out[1, k, j, i] = s * (gz * wx - gx * wz)
-            out[2, k, j, i] = s * (gx * wy - gy * wx)
+            a, b, c = gx[i], gy[i], gz[i]
+            norm = np.sqrt(a * a + b * b + c * c)
+            s = scale / norm if norm >= 1e-12 else np.float32(0.0)
+            gx[i] = s * (b * wz[i] - c * wy[i])
+            gy[i] = s * (c * wx[i] - a * wz[i])
+            gz[i] = s * (a * wy[i] - b * wx[i])
 
 
 @parallel_kernel

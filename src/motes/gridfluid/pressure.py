@@ -7,8 +7,13 @@ stays one thick), smooths with red-black Gauss-Seidel (red then black going down
 then red coming up, so that the cycle is a symmetric operator, as conjugate gradients
 needs), interpolates piecewise-constantly and restricts with its transpose, the average
 (tried against trilinear interpolation, it took fewer iterations: 9 against 13 at 512²,
-7 against 9 at 128³), and solves the coarsest level with more sweeps. Its iteration
-count hardly grows with the grid (tested: 32² to 128²).
+7 against 9 at 128³), and solves the coarsest level (at most 64 cells) exactly, with the
+inverse of its operator. Its iteration count hardly grows with the grid (tested: 32² to
+128²).
+
+Each red-black sweep is one pass over memory (:func:`.pressure_kernels.sweep`), and the
+residual is computed inside the restriction (:func:`.pressure_kernels.restrict_residual`):
+a level costs two kernel calls each way.
 """
 
 from __future__ import annotations
@@ -22,12 +27,17 @@ from .. import _validate as check
 from .._jit import threads_for
 from . import pressure_kernels as kern
 
-#: Coarsening stops once no axis is longer than this many cells.
-COARSEST = 4
+#: Coarsening stops at a level of at most this many cells (8² in 2D, 4³ in 3D), solved
+#: exactly: the inverse of its operator is made with the levels (a 64-cell inverse takes
+#: microseconds; an obstacle that moves rebuilds it every step).
+COARSEST = 64
 #: Gauss-Seidel sweeps (red + black) before and after the coarse correction.
 SMOOTHING = 2
-#: Sweeps on the coarsest level (each way).
-COARSEST_SWEEPS = 16
+#: Levels of fewer cells run on one thread. A level costs about ten parallel launches a
+#: cycle, each 0.02-0.2 ms on two cores (more while other processes load them): below
+#: this size that is more than the level's work (as for a whole grid fluid, whose
+#: ``SERIAL_BELOW`` this is).
+SERIAL_BELOW = 65536
 
 
 @dataclass
@@ -91,13 +101,14 @@ class PoissonSolver:
         """Rebuild the levels for new solid cells (an obstacle moved)."""
         solid = np.ascontiguousarray(solid, dtype=np.uint8)
         self.levels = [_level(solid, self.open_faces, np.ones(3, np.int64))]
-        while max(self.levels[-1].solid.shape) > COARSEST:
+        while self.levels[-1].solid.size > COARSEST:
             fine = self.levels[-1].solid
             factors = np.array([2 if n > 1 else 1 for n in fine.shape[::-1]], np.int64)
             shape = tuple(-(-n // f) for n, f in zip(fine.shape, factors[::-1], strict=True))
             coarse = np.empty(shape, np.uint8)
             kern.coarsen_solid(fine, factors, coarse)
             self.levels.append(_level(coarse, self.open_faces, factors))
+        self._coarsest = _dense_inverse(self.levels[-1])
         # Without an open face the operator is singular (pressure up to a constant):
         # residuals and corrections are kept free of the constant.
         self.singular = not self.open_faces.any()
@@ -109,6 +120,11 @@ class PoissonSolver:
         self._d = np.zeros_like(top.x)
         self._ad = np.zeros_like(top.x)
         self._fluid_cells = int(np.count_nonzero(top.solid == 0))
+        # the first level small enough for one thread (see threads_for)
+        self._split = next(
+            (d for d, level in enumerate(self.levels) if level.solid.size < SERIAL_BELOW),
+            len(self.levels) - 1,
+        )
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -121,7 +137,8 @@ class PoissonSolver:
         partial = self._partial
         r, z, d, ad = self._r, self._z, self._d, self._ad
         x[top.solid.astype(bool)] = 0.0
-        kern.residual(x, b, top.diag, top.inv_diag, top.zero, r)
+        kern.apply_operator(x, top.diag, top.inv_diag, top.zero, r, partial)
+        np.subtract(b, r, out=r)  # b - A x, 0 on solid cells (b is 0 there)
         self._remove_mean(r)
         scale = float(np.abs(b).max()) if b.size else 0.0
         if not math.isfinite(scale):
@@ -159,39 +176,58 @@ class PoissonSolver:
 
     def _precondition(self, r: np.ndarray, z: np.ndarray) -> None:
         """``z = M r``: one V-cycle from a zero guess."""
-        top = self.levels[0]
         z[...] = 0.0
         self._cycle(0, r, z)
         self._remove_mean(z)
-        del top
 
     def _cycle(self, depth: int, b: np.ndarray, x: np.ndarray) -> None:
-        level = self.levels[depth]
-        with threads_for(level.solid.size):
-            self._level_cycle(depth, level, b, x)
+        # from the first level small enough on, one thread (see threads_for)
+        if depth == self._split:
+            with threads_for(0):
+                self._level_cycle(depth, b, x)
+        else:
+            self._level_cycle(depth, b, x)
 
-    def _level_cycle(self, depth: int, level: Level, b: np.ndarray, x: np.ndarray) -> None:
-        if depth == len(self.levels) - 1:
-            _sweeps(x, b, level, COARSEST_SWEEPS, (0, 1))
-            _sweeps(x, b, level, COARSEST_SWEEPS, (1, 0))
+    def _level_cycle(self, depth: int, b: np.ndarray, x: np.ndarray) -> None:
+        level = self.levels[depth]
+        if depth == len(self.levels) - 1:  # solved exactly
+            cells, inverse = self._coarsest
+            x.ravel()[cells] = inverse @ b.ravel()[cells]
             return
-        _sweeps(x, b, level, SMOOTHING, (0, 1))
-        kern.residual(x, b, level.diag, level.inv_diag, level.zero, level.r)
+        kern.sweep(x, b, level.inv_diag, 0, level.r, SMOOTHING)
         coarse = self.levels[depth + 1]
         # The operator is h^2 times the Laplacian: on a level of twice the cell size the
         # right-hand side is 4 times the restricted (averaged) residual.
-        scale = 4.0 / float(coarse.factors.prod())
-        kern.restrict(level.r, coarse.solid, coarse.factors, scale, coarse.b)
-        coarse.x[...] = 0.0
+        scale = np.float32(4.0 / float(coarse.factors.prod()))
+        kern.restrict_residual(
+            x, b, level.diag, level.r, coarse.solid, coarse.factors, scale, coarse.b, coarse.x
+        )
         self._cycle(depth + 1, coarse.b, coarse.x)
         kern.prolong_add(coarse.x, coarse.factors, level.fluid, x)
-        _sweeps(x, b, level, SMOOTHING, (1, 0))
+        kern.sweep(x, b, level.inv_diag, 1, level.r, SMOOTHING)
 
 
-def _sweeps(x, b, level: Level, count: int, colors: tuple[int, int]) -> None:
-    for _ in range(count):
-        for color in colors:
-            kern.smooth(x, b, level.diag, level.inv_diag, level.zero, color)
+def _dense_inverse(level: Level) -> tuple[np.ndarray, np.ndarray]:
+    """The fluid cells (flat indices) of a small level and the inverse of the operator
+    over them (the pseudo-inverse where all walls are closed and it is singular): the
+    coarsest level's solve, exact and symmetric, in one product (relaxing it took 64
+    kernel launches a cycle, most of the cycle's time on grids of 128² and less)."""
+    solid = level.solid
+    cells = np.flatnonzero(solid.ravel() == 0)
+    number = np.full(solid.size, -1)
+    number[cells] = np.arange(cells.size)
+    number = number.reshape(solid.shape)
+    matrix = np.diag(level.diag.ravel()[cells].astype(np.float64))
+    for axis in range(3):
+        ahead = [slice(None)] * 3
+        behind = [slice(None)] * 3
+        ahead[axis], behind[axis] = slice(1, None), slice(None, -1)
+        a, b = number[tuple(behind)].ravel(), number[tuple(ahead)].ravel()
+        both = (a >= 0) & (b >= 0)
+        matrix[a[both], b[both]] = -1.0
+        matrix[b[both], a[both]] = -1.0
+    inverse = np.linalg.pinv(matrix, hermitian=True) if cells.size else matrix
+    return cells, inverse.astype(np.float32)
 
 
 def _level(solid: np.ndarray, open_faces: np.ndarray, factors: np.ndarray) -> Level:
