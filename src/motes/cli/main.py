@@ -1,5 +1,5 @@
-"""``motes run``, ``export``, ``render``, ``wedge`` (:mod:`.wedge_command`), ``scenes``,
-``show``, ``demo`` and ``--version``.
+"""``motes run``, ``export``, ``render``, ``wedge`` (:mod:`.wedge_command`), ``view``
+(:mod:`.view_command`), ``scenes``, ``show``, ``demo`` and ``--version``.
 
 User mistakes (a bad scene key, a missing file, a bad option, a size that would not fit
 in memory, a body that diverges while the scene runs) end with exit status 2 and one
@@ -237,9 +237,11 @@ def _parser() -> argparse.ArgumentParser:
         scheduler="draw the frames on a running Dask cluster, e.g. tcp://host:8786 (as --workers)",
     )
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
+    from .view_command import add_parser as add_view
     from .wedge_command import add_parser as add_wedge
 
     add_wedge(sub)
+    add_view(sub)
     sub.add_parser("scenes", help="list the built-in scenes")
     show = sub.add_parser(
         "show",
@@ -279,6 +281,10 @@ def main(argv: list[str] | None = None) -> int:
             from .wedge_command import run as wedge
 
             return wedge(args)
+        if args.command == "view":
+            from .view_command import run as view
+
+            return view(args)
         return _run(args)
     except (UserError, InsufficientMemoryError) as error:
         print(f"motes: error: {error}", file=sys.stderr)

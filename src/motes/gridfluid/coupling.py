@@ -65,6 +65,9 @@ class GridFlow(Force):
     """
 
     reads = ("position", "velocity", "mass")
+    #: It belongs with the fluid it samples: a system given another scene's forces
+    #: (``motes view``'s live values) keeps this one.
+    rides_body = True
 
     def __init__(self, fluid, *, response_time: float = 0.1):
         if not hasattr(fluid, "velocity_grids"):

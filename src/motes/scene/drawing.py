@@ -75,17 +75,31 @@ class SceneRenderer:
         """The particle systems and the objects the renderer draws for the scene now."""
         if scene.camera_path is not None:
             self.renderer.camera = scene.camera_at(scene.time, self.resolution)
-        particles = scene.systems if states is None else states
-        systems = [(particles[name], style) for name, style in self.styles.items()]
-        objects = list(self.objects)
-        for name, surface in self.surfaces.items():
-            with _surface_of(f"system.{key_name(name)}.render", scene):
-                objects.extend(surface.drawables(particles[name]))
-        for name, body in scene.bodies.items():
-            with _surface_of(f"body.{key_name(name)}", scene):
-                systems.extend(body.particles())
-                objects.extend(body.drawables())
+        systems, objects = [], []
+        for _, particles, shapes in self.parts(scene, states):
+            systems.extend(particles)
+            objects.extend(shapes)
         return systems, objects
+
+    def parts(self, scene, states=None) -> list[tuple[str, list, list]]:
+        """What each part of the scene draws now: ``(path, particles, objects)`` with
+        ``particles`` a list of ``(particles, SpriteStyle)`` and ``objects`` of
+        ``render.geometry`` objects (and volumes). The scene's own objects come first
+        (path ``"object"``), then each system (``"system.NAME"``), then each body
+        (``"body.NAME"``); ``states`` as in :meth:`render_scene`."""
+        particles = scene.systems if states is None else states
+        parts = [("object", [], list(self.objects))]
+        for name, style in self.styles.items():
+            parts.append((f"system.{key_name(name)}", [(particles[name], style)], []))
+        for name, surface in self.surfaces.items():
+            path = f"system.{key_name(name)}"
+            with _surface_of(f"{path}.render", scene):
+                parts.append((path, [], surface.drawables(particles[name])))
+        for name, body in scene.bodies.items():
+            path = f"body.{key_name(name)}"
+            with _surface_of(path, scene):
+                parts.append((path, list(body.particles()), list(body.drawables())))
+        return parts
 
 
 @contextmanager

@@ -1,0 +1,236 @@
+"""What the viewer sends of one frame: points, meshes and lines, compact.
+
+Particle positions travel as float16 offsets from the centre of their bounding box
+(:func:`quantize`): 6 bytes a particle, with an error of at most ``half_extent · 2⁻¹¹``
+per coordinate (half a unit in the last place of float16's 11-bit significand), e.g.
+0.5 mm anywhere within 1 m of the centre. Colours travel as 8-bit sRGB. A frame with
+more particles than the link carries in time is thinned by a stride (every k-th
+particle, the same ones each frame, as particles keep their order in a store).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..color import linear_to_srgb
+from ..render import geometry
+from ..render.volume import Volume
+from ..state import as_state
+
+__all__ = ["FramePacket", "Lines", "Mesh", "Points", "dequantize", "packet_of", "quantize"]
+
+#: Largest offset float16 holds (beyond it a system is sent as float32).
+FLOAT16_MAX = 65504.0
+#: Relative rounding error of float16 (half its unit in the last place at 1).
+FLOAT16_EPS = 2.0**-11
+#: Voxels of a volume shown as points, at most (a 128³ smoke has about 10⁵ dense ones).
+VOLUME_POINTS = 200_000
+#: A moving mesh of more triangles is sent as points at its vertices (a flock of 120,000
+#: birds is 1.4 M triangles, 50 MB a frame as a mesh), at most this many.
+MESH_FACES_MAX = 200_000
+
+
+def quantize(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(origin (3,) float64, offsets (n, 3) float16 or float32)`` of ``positions``
+    (n, 3) [m]: offsets from the centre of their bounding box, in float16 unless one
+    would overflow it (then float32). ``origin + offsets`` is within
+    :func:`quantization_error` of ``positions``."""
+    positions = np.asarray(positions, dtype=np.float64)
+    if len(positions) == 0:
+        return np.zeros(3), np.zeros((0, 3), np.float16)
+    low, high = positions.min(axis=0), positions.max(axis=0)
+    origin = 0.5 * (low + high)
+    offsets = positions - origin
+    wide = float(np.max(high - low)) / 2.0 >= FLOAT16_MAX
+    return origin, offsets.astype(np.float32 if wide else np.float16)
+
+
+def dequantize(origin: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """(n, 3) float64 positions [m] back from :func:`quantize`'s output."""
+    return np.asarray(origin, np.float64) + offsets.astype(np.float64)
+
+
+def quantization_error(offsets: np.ndarray) -> float:
+    """Largest error [m] :func:`quantize` can have made in any coordinate of ``offsets``."""
+    if offsets.size == 0 or offsets.dtype != np.float16:
+        return 0.0 if offsets.size == 0 else float(np.abs(offsets).max()) * 2.0**-24
+    return float(np.abs(offsets.astype(np.float32)).max()) * FLOAT16_EPS + 2.0**-25
+
+
+@dataclass(frozen=True)
+class Points:
+    """Particles drawn as round points of one size."""
+
+    origin: np.ndarray  #: (3,) float64 [m], added to every offset
+    offsets: np.ndarray  #: (n, 3) float16 (or float32) [m]
+    colors: np.ndarray  #: (n, 3) uint8 sRGB
+    size: float  #: point diameter [m]
+
+    @property
+    def nbytes(self) -> int:
+        return self.offsets.nbytes + self.colors.nbytes
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A triangle mesh of one colour."""
+
+    vertices: np.ndarray  #: (v, 3) float32 [m]
+    faces: np.ndarray  #: (f, 3) uint32
+    color: tuple[int, int, int]  #: sRGB
+
+    @property
+    def nbytes(self) -> int:
+        return self.vertices.nbytes + self.faces.nbytes
+
+
+@dataclass(frozen=True)
+class Lines:
+    """Line segments (hair strands, trails)."""
+
+    segments: np.ndarray  #: (m, 2, 3) float32 [m]
+    colors: np.ndarray  #: (m, 2, 3) uint8 sRGB
+
+    @property
+    def nbytes(self) -> int:
+        return self.segments.nbytes + self.colors.nbytes
+
+
+@dataclass
+class FramePacket:
+    """One frame as the browser draws it: shapes by node name (``system.fire/0``...)."""
+
+    index: int  #: frame number, from 1 (0: before the first step)
+    time: float  #: [s]
+    points: dict[str, Points] = field(default_factory=dict)
+    meshes: dict[str, Mesh] = field(default_factory=dict)
+    lines: dict[str, Lines] = field(default_factory=dict)
+    #: Live particles by part (before any stride), for the status line.
+    counts: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def nbytes(self) -> int:
+        shapes = (*self.points.values(), *self.meshes.values(), *self.lines.values())
+        return sum(shape.nbytes for shape in shapes)
+
+    @property
+    def names(self) -> set[str]:
+        return set(self.points) | set(self.meshes) | set(self.lines)
+
+
+def packet_of(parts, camera, *, index: int, time: float, stride: int = 1) -> FramePacket:
+    """A :class:`FramePacket` of ``parts`` (:meth:`SceneRenderer.parts` output: ``(path,
+    particles, objects)``), every ``stride``-th particle of each system; ``camera``
+    places a ground without a size."""
+    packet = FramePacket(index, time)
+    for path, particles, objects in parts:
+        count = 0
+        for k, (item, style) in enumerate(particles):
+            state = as_state(item)
+            count += state.count
+            if state.count:
+                packet.points[f"{path}/{k}"] = _points_of(state, style, stride)
+        for k, obj in enumerate(objects):
+            name = f"{path}/shape{k}"
+            if isinstance(obj, geometry.Spheres):
+                count += len(obj.centers)
+                if len(obj.centers):
+                    packet.points[name] = _sphere_points(obj, stride)
+            elif isinstance(obj, geometry.Lines):
+                packet.lines[name] = _lines_of(obj)
+            elif isinstance(obj, Volume):
+                points = _volume_points(obj)
+                if points is not None:
+                    packet.points[name] = points
+            elif hasattr(obj, "triangles"):
+                triangles = obj.triangles(camera)
+                if path != "object" and len(triangles.faces) > MESH_FACES_MAX:
+                    packet.points[name] = _vertex_points(triangles)
+                else:
+                    packet.meshes[name] = _mesh_of(triangles)
+        if count:
+            packet.counts[path] = count
+    return packet
+
+
+def _srgb8(linear: np.ndarray) -> np.ndarray:
+    """Linear RGB (…, 3) as 8-bit sRGB, clipped to [0, 1] first."""
+    encoded = linear_to_srgb(np.clip(linear, 0.0, 1.0))
+    return np.round(encoded * 255.0).astype(np.uint8)
+
+
+def _points_of(state, style, stride: int) -> Points:
+    """A system's particles as points: additive ones (light) as their colour times their
+    alpha and intensity, alpha-blended ones as their colour (points have no opacity)."""
+    positions = state.positions[:, ::stride].T
+    if "color" in state:
+        rgba = state["color"][:, ::stride].T.astype(np.float32)
+        rgb = rgba[:, :3]
+        if getattr(style, "blend", None) == "additive":
+            rgb = rgb * (rgba[:, 3:4] * float(getattr(style, "intensity", 1.0)))
+    else:
+        rgb = np.ones((len(positions), 3), np.float32)
+    origin, offsets = quantize(positions)
+    return Points(origin, offsets, _srgb8(rgb), _diameter(state.radius))
+
+
+def _sphere_points(spheres: geometry.Spheres, stride: int) -> Points:
+    origin, offsets = quantize(spheres.centers[::stride])
+    colors = _srgb8(np.asarray(spheres.colors, np.float32)[::stride])
+    return Points(origin, offsets, colors, _diameter(spheres.radii))
+
+
+def _diameter(radius) -> float:
+    """One point size for a system: twice its median radius [m] (1 cm if none)."""
+    radius = np.asarray(radius)
+    size = 2.0 * float(np.median(radius)) if radius.size else 0.0
+    return size if np.isfinite(size) and size > 0 else 0.01
+
+
+def _mesh_of(triangles: geometry.TriangleSet) -> Mesh:
+    color = _srgb8(triangles.colors.mean(axis=0)) if len(triangles.colors) else (178, 178, 178)
+    return Mesh(
+        np.ascontiguousarray(triangles.positions, np.float32),
+        np.ascontiguousarray(triangles.faces, np.uint32),
+        tuple(int(c) for c in color),
+    )
+
+
+def _vertex_points(triangles: geometry.TriangleSet) -> Points:
+    """A mesh too big to send each frame as points at (some of) its vertices, each the
+    size of its mean edge."""
+    faces, positions = triangles.faces, triangles.positions
+    step = max(1, -(-len(positions) // VOLUME_POINTS))
+    edge = np.linalg.norm(positions[faces[:, 1]] - positions[faces[:, 0]], axis=1).mean()
+    origin, offsets = quantize(positions[::step])
+    colors = _srgb8(triangles.colors[::step])
+    return Points(origin, offsets, colors, float(edge) if edge > 0 else 0.01)
+
+
+def _lines_of(lines: geometry.Lines) -> Lines:
+    return Lines(lines.ends().astype(np.float32), _srgb8(lines.colors))
+
+
+def _volume_points(volume: Volume) -> Points | None:
+    """A volume as points at its denser voxels (above a tenth of its peak), grey by
+    density, or glowing by temperature where it emits: a preview, not the lit volume."""
+    density = volume.density
+    peak = float(density.max()) if density.size else 0.0
+    if peak <= 0.0:
+        return None
+    dense = np.flatnonzero(density.ravel() > 0.1 * peak)
+    if dense.size > VOLUME_POINTS:
+        dense = dense[:: -(-dense.size // VOLUME_POINTS)]
+    ijk = np.stack(np.unravel_index(dense, density.shape), axis=1)
+    positions = volume.origin + (ijk + 0.5) * volume.cell_size
+    share = (density.ravel()[dense] / peak).astype(np.float32)[:, None]
+    rgb = np.asarray(volume.albedo, np.float32) * (0.35 + 0.65 * share)
+    if volume.temperature is not None and volume.emission > 0:
+        from ..render.volume_blackbody import blackbody_rgb
+
+        glow = blackbody_rgb(volume.temperature.ravel()[dense]).astype(np.float32)
+        rgb = np.maximum(rgb * np.ones((1, 3), np.float32), glow)
+    origin, offsets = quantize(positions)
+    return Points(origin, offsets, _srgb8(rgb), float(volume.cell_size))

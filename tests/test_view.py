@@ -1,0 +1,212 @@
+"""The live viewer's parts: packets, the timeline, parameters, live values, sources."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motes.scene import SceneError, load_scene
+from motes.view.packet import FramePacket, Points, dequantize, quantization_error, quantize
+from motes.view.params import parameters, save_scene
+from motes.view.sources import LiveSource
+from motes.view.timeline import Timeline
+
+#: A small scene: a fountain of particles over a ground, a sphere collider.
+SCENE = """\
+# a small fountain for the viewer's tests
+[scene]
+duration = 1.0
+fps = 30
+seed = 3
+
+[[system]]
+name = "spray"
+capacity = 5000
+
+  [[system.emitter]]
+  shape = { type = "point" }
+  rate = { type = "per_second", rate = 3000 }   # births per second
+  speed = { uniform = [2.0, 3.0] }
+  direction = { type = "cone", axis = [0, 1, 0], angle = 20 }
+  lifetime = { uniform = [1.0, 2.0] }
+  size = 0.02
+
+  [[system.force]]
+  type = "gravity"
+  acceleration = [0.0, -9.81, 0.0]
+
+[[collider]]
+type = "plane"
+point = [0, 0, 0]
+normal = [0, 1, 0]
+restitution = 0.3
+"""
+
+
+@pytest.fixture
+def scene_file(tmp_path):
+    path = tmp_path / "spray.toml"
+    path.write_text(SCENE)
+    return path
+
+
+def test_quantize_is_within_the_stated_error():
+    rng = np.random.default_rng(0)
+    for scale, shift in ((1.0, 0.0), (30.0, 1000.0), (0.01, -5.0)):
+        positions = shift + scale * rng.standard_normal((5000, 3))
+        origin, offsets = quantize(positions)
+        assert offsets.dtype == np.float16
+        error = np.abs(dequantize(origin, offsets) - positions).max()
+        bound = quantization_error(offsets)
+        assert error <= bound
+        # the bound is tight to a factor 2: half a unit in the last place
+        assert bound <= 2 * np.abs(offsets.astype(np.float64)).max() * 2.0**-11 + 1e-7
+    # wider than float16 reaches: float32
+    origin, offsets = quantize(np.array([[0.0, 0, 0], [2e5, 0, 0]]))
+    assert offsets.dtype == np.float32
+    assert np.allclose(dequantize(origin, offsets), [[0, 0, 0], [2e5, 0, 0]])
+    origin, offsets = quantize(np.zeros((0, 3)))
+    assert offsets.shape == (0, 3)
+
+
+def _packet(index: int, n: int) -> FramePacket:
+    points = Points(np.zeros(3), np.zeros((n, 3), np.float16), np.zeros((n, 3), np.uint8), 0.1)
+    return FramePacket(index, index / 30, points={"p": points})
+
+
+def test_timeline_keeps_the_newest_frames_within_its_budget():
+    timeline = Timeline(budget=10 * 9 * 100)  # 10 frames of 100 points (9 bytes each)
+    for index in range(1, 26):
+        timeline.add(_packet(index, 100))
+    assert (timeline.first, timeline.last, len(timeline)) == (16, 25, 10)
+    assert timeline.nbytes <= timeline.budget
+    with pytest.raises(KeyError):
+        timeline.get(3)
+    assert timeline.get(20).index == 20
+    # a frame numbered again (a restart) replaces it and every later one
+    timeline.add(_packet(18, 100))
+    assert (timeline.first, timeline.last) == (16, 18)
+    # one frame bigger than the budget is still kept: the newest always is
+    timeline.add(_packet(19, 10_000))
+    assert (timeline.first, timeline.last) == (19, 19)
+    with pytest.raises(ValueError, match="budget"):
+        Timeline(0)
+
+
+def test_parameters_are_the_files_numbers_keyed_as_set_takes_them():
+    found = {p.key: p for p in parameters(SCENE)}
+    assert found["scene.duration"].value == 1.0 and not found["scene.duration"].live
+    assert found["system.spray.capacity"].integer and not found["system.spray.capacity"].live
+    rate = found["system.spray.emitter.0.rate.rate"]
+    assert (rate.value, rate.live, rate.group) == (3000, True, "system spray")
+    assert found["system.spray.emitter.0.speed.uniform"].value == (2.0, 3.0)
+    assert found["system.spray.force.0.acceleration"].value == (0.0, -9.81, 0.0)
+    assert not found["collider.0.restitution"].live
+    assert "system.spray.name" not in found
+    # every key is one load_scene accepts
+    for key, p in found.items():
+        load_scene(SCENE, overrides={key: p.value})
+    # overrides show
+    tuned = {p.key: p.value for p in parameters(SCENE, {"scene.fps": 24})}
+    assert tuned["scene.fps"] == 24
+
+
+def test_a_grid_flow_force_acts_at_restart():
+    found = {p.key: p for p in parameters(load_text("campfire"))}
+    flows = [p for p in found.values() if ".force." in p.key and "response_time" in p.key]
+    assert flows and not any(p.live for p in flows)
+
+
+def load_text(name: str) -> str:
+    from motes.scene.scene import builtin_text
+
+    return builtin_text(name)
+
+
+def test_saving_keeps_comments_and_loads_with_the_values(tmp_path):
+    target = tmp_path / "tuned.toml"
+    values = {"system.spray.emitter.0.rate.rate": 500, "scene.fps": 24}
+    save_scene(SCENE, values, target)
+    text = target.read_text()
+    assert "# a small fountain" in text and "# births per second" in text
+    scene = load_scene(target)
+    assert scene.fps == 24
+    assert {p.key: p.value for p in parameters(text)}["system.spray.emitter.0.rate.rate"] == 500
+
+
+def test_a_live_value_acts_from_the_next_step(scene_file):
+    source = LiveSource(scene_file)
+    source.restart()
+    for _ in range(5):
+        source.advance()
+    spray = source.scene.systems["spray"]
+    count, ids = len(spray), set(spray.particle_state().ids.tolist())
+    waiting = source.set_values({"system.spray.emitter.0.rate.rate": 0})
+    assert waiting == []
+    assert source.scene.systems["spray"] is spray  # the same particles, going on
+    source.advance()
+    # no births: every particle is one of before (some may have died)
+    assert set(spray.particle_state().ids.tolist()) <= ids
+    assert len(spray) <= count
+    # and the gravity made stronger pulls harder from the next step
+    source.set_values({"system.spray.force.0.acceleration": [0.0, -30.0, 0.0]})
+    before = spray.particle_state().velocities[1].copy()
+    source.advance()
+    after = spray.particle_state().velocities[1]
+    assert np.median(after - before[: len(after)]) < -0.5  # ~ -1 m/s per frame, not -0.33
+
+
+def test_a_value_out_of_range_changes_nothing(scene_file):
+    source = LiveSource(scene_file)
+    source.restart()
+    source.advance()
+    with pytest.raises(SceneError, match=r"rate.*>= 0"):
+        source.set_values({"system.spray.emitter.0.rate.rate": -5})
+    assert "system.spray.emitter.0.rate.rate" not in source.overrides
+    # a restart-only value waits for the restart
+    assert source.set_values({"scene.duration": 2.0}) == ["scene.duration"]
+    assert source.scene.duration == 1.0
+    source.restart()
+    assert source.scene.duration == 2.0 and source.available == 0
+
+
+def test_a_frame_decodes_to_the_positions_simulated(scene_file):
+    source = LiveSource(scene_file)
+    source.restart()
+    for _ in range(8):
+        packet = source.advance()
+    points = packet.points["system.spray/0"]
+    simulated = source.scene.systems["spray"].particle_state().positions.T
+    sent = dequantize(points.origin, points.offsets)
+    assert sent.shape == simulated.shape
+    assert np.abs(sent - simulated).max() <= quantization_error(points.offsets)
+    assert points.colors.dtype == np.uint8 and points.colors.shape == simulated.shape
+    assert packet.counts["system.spray"] == len(simulated)
+
+
+def test_objects_are_static_and_a_cloth_is_a_moving_mesh():
+    source = LiveSource("cloth_drop")
+    source.restart()
+    static = source.static()
+    assert len(static.meshes) >= 2 and not static.points  # the ground and the sphere
+    first = source.advance().meshes["body.cloth/shape0"]
+    for _ in range(5):
+        packet = source.advance()
+    cloth = packet.meshes["body.cloth/shape0"]
+    assert cloth.faces.shape == first.faces.shape and cloth.faces.shape[0] > 1000
+    assert not np.array_equal(cloth.vertices, first.vertices)  # it falls
+    positions = source.scene.bodies["cloth"].particle_state().positions.T
+    low, high = positions.min(axis=0) - 0.05, positions.max(axis=0) + 0.05
+    assert np.all((cloth.vertices >= low) & (cloth.vertices <= high))
+
+
+def test_a_stride_thins_big_systems(scene_file):
+    source = LiveSource(scene_file)
+    source.restart()
+    source.max_points = 600
+    for _ in range(10):
+        packet = source.advance()
+    live = packet.counts["system.spray"]
+    sent = len(packet.points["system.spray/0"].offsets)
+    stride = -(-live // 600)
+    assert live > 600 and sent == len(range(0, live, stride)) and sent <= 600
