@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from .._jit import called, device, parallel_kernel
+from .._jit import called_copy, device, parallel_kernel
 
 
 @device
@@ -100,10 +100,10 @@ def _neighbour_sum(x, row, nx, out):
 #: :func:`_neighbour_sum` compiled once and called: the smoother inlines it (its loop is
 #: the solve's hottest); the residual and the operator call this (2 s less to compile,
 #: the solve 1 % slower).
-_neighbour_sum_called = called(_neighbour_sum.py_func)
+_neighbour_sum_called = called_copy(_neighbour_sum)
 
 #: :func:`_row`, likewise.
-_row_called = called(_row.py_func)
+_row_called = called_copy(_row)
 
 
 @parallel_kernel
@@ -140,7 +140,7 @@ def _dot(p, q, base, nx):
 
 
 #: :func:`_dot` compiled once and called (the viscosity solve's operator).
-_dot_called = called(_dot.py_func)
+_dot_called = called_copy(_dot)
 
 
 @parallel_kernel
