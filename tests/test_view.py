@@ -2,11 +2,25 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
+from motes.color import linear_to_srgb
 from motes.scene import SceneError, load_scene
-from motes.view.packet import FramePacket, Points, dequantize, quantization_error, quantize
+from motes.state import Field, ParticleState
+from motes.view.packet import (
+    FramePacket,
+    Points,
+    capacity,
+    dequantize,
+    fits,
+    packet_of,
+    padded,
+    quantization_error,
+    quantize,
+)  # fmt: skip
 from motes.view.params import parameters, save_scene
 from motes.view.sources import LiveSource
 from motes.view.timeline import Timeline
@@ -67,6 +81,45 @@ def test_quantize_is_within_the_stated_error():
     assert np.allclose(dequantize(origin, offsets), [[0, 0, 0], [2e5, 0, 0]])
     origin, offsets = quantize(np.zeros((0, 3)))
     assert offsets.shape == (0, 3)
+
+
+def test_a_cloud_has_room_for_a_drifting_count():
+    for n in (1, 64, 65, 1000, 123_457, 1_000_000):
+        assert n <= capacity(n) <= max(64, 1.19 * n + 1)
+        assert fits(n, capacity(n))
+    held = capacity(10_000)
+    # a count that drifts by a tenth keeps its cloud; one that doubles gets a new one
+    assert all(fits(n, held) for n in range(9_000, held + 1, 97))
+    assert not fits(held + 1, held) and not fits(held // 4, held)
+    offsets = np.arange(30, dtype=np.float16).reshape(10, 3)
+    colors = np.arange(30, dtype=np.uint8).reshape(10, 3)
+    grown, grown_colors = padded(offsets, colors, 16)
+    assert grown.shape == (16, 3) and np.array_equal(grown[:10], offsets)
+    assert np.array_equal(grown[10:], np.repeat(offsets[:1], 6, axis=0))  # on the first
+    assert np.array_equal(grown_colors[10:], np.repeat(colors[:1], 6, axis=0))
+
+
+def test_additive_particles_show_their_hue_and_leave_out_the_dimmest():
+    color = np.array([
+        [1.0, 0.8, 0.006, 1.0],  # full light: its own colour
+        [1.0, 0.4, 0.02, 1 / 3],  # a third of it: its hue at 2/3
+        [1.0, 1.0, 1.0, 0.05],  # under a tenth: left out
+        [1.0, 0.4, 0.02, 0.01],
+    ], np.float32).T  # fmt: skip
+    n = color.shape[1]
+    state = ParticleState(np.arange(n, dtype=np.int64), np.arange(3.0 * n).reshape(3, n),
+                          np.zeros((3, n)), np.full(n, 0.05), {"color": Field(color)})  # fmt: skip
+    fire = SimpleNamespace(blend="additive", intensity=1.0)
+    shown = packet_of([("system.fire", [(state, fire)], [])], None, index=1, time=0.0)
+    points = shown.points["system.fire/0"]
+    expected = linear_to_srgb(np.array([[1.0, 0.8, 0.006], [2 / 3, 0.4 * 2 / 3, 0.02 * 2 / 3]]))
+    assert np.array_equal(points.colors, np.round(expected * 255))
+    assert np.allclose(dequantize(points.origin, points.offsets), state.positions[:, :2].T,
+                       atol=quantization_error(points.offsets))  # fmt: skip
+    smoke = SimpleNamespace(blend="alpha")
+    shown = packet_of([("system.smoke", [(state, smoke)], [])], None, index=1, time=0.0)
+    assert len(shown.points["system.smoke/0"].offsets) == n  # alpha-blended: all, as is
+    assert shown.points["system.smoke/0"].size == pytest.approx(0.1)  # a diameter
 
 
 def _packet(index: int, n: int) -> FramePacket:

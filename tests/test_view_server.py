@@ -14,6 +14,7 @@ import pytest
 pytest.importorskip("viser")
 
 from motes.cli.main import main
+from motes.view.packet import capacity, fits
 from motes.view.server import Viewer, ViewError, check_port
 from motes.view.sources import CacheSource, LiveSource
 from test_view import SCENE
@@ -211,3 +212,23 @@ def test_the_bytes_sent_are_the_quantized_positions(viewer):
     thread.join(timeout=20)
     assert wanted in received
     assert np.frombuffer(wanted, np.float16).shape == (points.offsets.size,)
+
+
+def test_a_cloud_is_sized_by_radius_and_updated_in_place(viewer):
+    """viser's point size is a radius; a cloud with room for the particles is kept."""
+    viewer.playing = False
+    for _ in range(20):
+        viewer._do("step")
+    node = "/frame/system.spray/0"
+    handle = viewer._nodes[node]
+    points = viewer.source.packet(viewer.shown).points["system.spray/0"]
+    assert handle.point_size == pytest.approx(0.5 * points.size)
+    assert len(handle.points) == capacity(len(points.offsets))
+    kept = 0
+    for _ in range(6):
+        held = len(handle.points)
+        viewer._do("step")
+        count = len(viewer.source.packet(viewer.shown).points["system.spray/0"].offsets)
+        kept += viewer._nodes[node] is handle and fits(count, held)
+        handle = viewer._nodes[node]
+    assert kept >= 4  # 100 births a frame on about 600: mostly in place

@@ -10,6 +10,7 @@ particle, the same ones each frame, as particles keep their order in a store).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,7 +20,18 @@ from ..render import geometry
 from ..render.volume import Volume
 from ..state import as_state
 
-__all__ = ["FramePacket", "Lines", "Mesh", "Points", "dequantize", "packet_of", "quantize"]
+__all__ = [
+    "FramePacket",
+    "Lines",
+    "Mesh",
+    "Points",
+    "capacity",
+    "dequantize",
+    "fits",
+    "packet_of",
+    "padded",
+    "quantize",
+]
 
 #: Largest offset float16 holds (beyond it a system is sent as float32).
 FLOAT16_MAX = 65504.0
@@ -130,8 +142,9 @@ def packet_of(parts, camera, *, index: int, time: float, stride: int = 1) -> Fra
         for k, (item, style) in enumerate(particles):
             state = as_state(item)
             count += state.count
-            if state.count:
-                packet.points[f"{path}/{k}"] = _points_of(state, style, stride)
+            points = _points_of(state, style, stride) if state.count else None
+            if points is not None:
+                packet.points[f"{path}/{k}"] = points
         for k, obj in enumerate(objects):
             name = f"{path}/shape{k}"
             if isinstance(obj, geometry.Spheres):
@@ -155,21 +168,61 @@ def packet_of(parts, camera, *, index: int, time: float, stride: int = 1) -> Fra
     return packet
 
 
+def capacity(count: int) -> int:
+    """Points a browser's cloud holds for ``count`` particles: ``count`` rounded up to a
+    power of 2^(1/4) (at least 64). A cloud whose count changes is rebuilt in the
+    browser (a new buffer, a new material), a cloud with room for it is updated in place:
+    a system whose count drifts keeps its cloud."""
+    return math.ceil(2.0 ** (math.ceil(4.0 * math.log2(max(count, 64))) / 4.0))
+
+
+def fits(count: int, held: int) -> bool:
+    """Whether a cloud of ``held`` points can show ``count`` particles without wasting
+    more than about twice the room they need."""
+    return count <= held <= 2 * capacity(count)
+
+
+def padded(offsets: np.ndarray, colors: np.ndarray, held: int):
+    """``offsets``, ``colors`` grown to ``held`` rows by repeats of the first particle
+    (drawn on top of it: nothing new shows)."""
+    extra = held - len(offsets)
+    if extra <= 0:
+        return offsets, colors
+    return (
+        np.concatenate([offsets, np.repeat(offsets[:1], extra, axis=0)]),
+        np.concatenate([colors, np.repeat(colors[:1], extra, axis=0)]),
+    )
+
+
 def _srgb8(linear: np.ndarray) -> np.ndarray:
     """Linear RGB (…, 3) as 8-bit sRGB, clipped to [0, 1] first."""
     encoded = linear_to_srgb(np.clip(linear, 0.0, 1.0))
     return np.round(encoded * 255.0).astype(np.uint8)
 
 
-def _points_of(state, style, stride: int) -> Points:
-    """A system's particles as points: additive ones (light) as their colour times their
-    alpha and intensity, alpha-blended ones as their colour (points have no opacity)."""
+#: Additive particles emitting less than this (brightest channel of colour × alpha ×
+#: intensity) are not sent: an opaque point cannot add faint light, it would hide what
+#: lies behind it under a dark disc (a flame's dying particles).
+DIM_LIGHT = 0.1
+
+
+def _points_of(state, style, stride: int) -> Points | None:
+    """A system's particles as points (None if none is shown). Points are opaque:
+    alpha-blended particles show their colour; additive ones (light) show their hue at a
+    brightness that falls with their light only down to half, and the dimmest are left
+    out (:data:`DIM_LIGHT`)."""
     positions = state.positions[:, ::stride].T
     if "color" in state:
         rgba = state["color"][:, ::stride].T.astype(np.float32)
         rgb = rgba[:, :3]
         if getattr(style, "blend", None) == "additive":
-            rgb = rgb * (rgba[:, 3:4] * float(getattr(style, "intensity", 1.0)))
+            light = rgb * (rgba[:, 3:4] * float(getattr(style, "intensity", 1.0)))
+            peak = light.max(axis=1, keepdims=True)
+            shown = peak[:, 0] >= DIM_LIGHT
+            if not shown.any():
+                return None
+            light, peak, positions = light[shown], peak[shown], positions[shown]
+            rgb = light / peak * (0.5 + 0.5 * np.minimum(peak, 1.0))
     else:
         rgb = np.ones((len(positions), 3), np.float32)
     origin, offsets = quantize(positions)

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..finite import NonFiniteError
 from ..scene import SceneError
-from .packet import FramePacket
+from .packet import FramePacket, capacity, fits, padded
 from .params import Parameter
 from .sources import LiveSource, Source
 
@@ -298,15 +298,21 @@ class Viewer:
 
         scene = self.server.scene
         if isinstance(shape, Points):
-            size = shape.size * self._point_scale.value
+            # viser's point_size is a radius: a point of point_size s at depth z covers
+            # s · height / (tan(fov / 2) · z) pixels.
+            size = 0.5 * shape.size * self._point_scale.value
             precision = "float16" if shape.offsets.dtype == np.float16 else "float32"
-            if handle is not None and len(handle.points) == len(shape.offsets):
-                handle.points = shape.offsets
-                handle.colors = shape.colors
+            held = len(handle.points) if handle is not None else 0
+            same = handle is not None and handle.precision == precision
+            if same and fits(len(shape.offsets), held):
+                offsets, colors = padded(shape.offsets, shape.colors, held)
+                handle.points = offsets
+                handle.colors = colors
                 handle.position = shape.origin
                 handle.point_size = size
                 return handle
-            return scene.add_point_cloud(node, shape.offsets, shape.colors, point_size=size,
+            offsets, colors = padded(shape.offsets, shape.colors, capacity(len(shape.offsets)))
+            return scene.add_point_cloud(node, offsets, colors, point_size=size,
                                          point_shape="circle", precision=precision,
                                          position=shape.origin)  # fmt: skip
         if isinstance(shape, Mesh):
