@@ -113,13 +113,34 @@ def test_additive_particles_show_their_hue_and_leave_out_the_dimmest():
     shown = packet_of([("system.fire", [(state, fire)], [])], None, index=1, time=0.0)
     points = shown.points["system.fire/0"]
     expected = linear_to_srgb(np.array([[1.0, 0.8, 0.006], [2 / 3, 0.4 * 2 / 3, 0.02 * 2 / 3]]))
-    assert np.array_equal(points.colors, np.round(expected * 255))
+    assert np.abs(points.colors - np.round(expected * 255)).max() <= 1  # one 8-bit level
     assert np.allclose(dequantize(points.origin, points.offsets), state.positions[:, :2].T,
                        atol=quantization_error(points.offsets))  # fmt: skip
     smoke = SimpleNamespace(blend="alpha")
     shown = packet_of([("system.smoke", [(state, smoke)], [])], None, index=1, time=0.0)
     assert len(shown.points["system.smoke/0"].offsets) == n  # alpha-blended: all, as is
+    assert np.abs(shown.points["system.smoke/0"].colors - srgb8(color[:3].T)).max() <= 1
     assert shown.points["system.smoke/0"].size == pytest.approx(0.1)  # a diameter
+
+
+def srgb8(linear: np.ndarray) -> np.ndarray:
+    return np.round(linear_to_srgb(linear) * 255.0)
+
+
+def test_colours_are_encoded_within_one_level_and_in_order():
+    rng = np.random.default_rng(1)
+    n = 50_000  # many blocks: the order across them is kept
+    color = rng.uniform(-0.1, 1.1, (4, n)).astype(np.float32)
+    positions = rng.standard_normal((3, n))
+    state = ParticleState(np.arange(n, dtype=np.int64), positions, np.zeros((3, n)),
+                          np.full(n, 0.01), {"color": Field(color)})  # fmt: skip
+    for stride in (1, 3):
+        parts = [("system.s", [(state, SimpleNamespace(blend="alpha"))], [])]
+        points = packet_of(parts, None, index=1, time=0.0, stride=stride).points["system.s/0"]
+        assert np.abs(points.colors - srgb8(color[:3, ::stride].T)).max() <= 1
+        sent = dequantize(points.origin, points.offsets)
+        error = np.abs(sent - positions[:, ::stride].T).max()
+        assert error <= quantization_error(points.offsets)
 
 
 def _packet(index: int, n: int) -> FramePacket:

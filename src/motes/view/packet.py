@@ -19,6 +19,11 @@ from ..color import linear_to_srgb
 from ..render import geometry
 from ..render.volume import Volume
 from ..state import as_state
+from . import packet_kernels as kernels
+from .packet_kernels import BLOCK
+
+#: The linear-to-sRGB table of :func:`packet_kernels.pack`.
+_SRGB8 = kernels.srgb8_table()
 
 __all__ = [
     "FramePacket",
@@ -42,6 +47,8 @@ VOLUME_POINTS = 200_000
 #: A moving mesh of more triangles is sent as points at its vertices (a flock of 120,000
 #: birds is 1.4 M triangles, 50 MB a frame as a mesh), at most this many.
 MESH_FACES_MAX = 200_000
+#: Radii a system's point size is the median of, at most.
+SIZE_SAMPLE = 4096
 
 
 def quantize(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -67,8 +74,9 @@ def dequantize(origin: np.ndarray, offsets: np.ndarray) -> np.ndarray:
 def quantization_error(offsets: np.ndarray) -> float:
     """Largest error [m] :func:`quantize` can have made in any coordinate of ``offsets``."""
     if offsets.size == 0 or offsets.dtype != np.float16:
-        return 0.0 if offsets.size == 0 else float(np.abs(offsets).max()) * 2.0**-24
-    return float(np.abs(offsets.astype(np.float32)).max()) * FLOAT16_EPS + 2.0**-25
+        return 0.0 if offsets.size == 0 else float(np.abs(offsets).max()) * 2.0**-23
+    # float16's half unit, and float32's where offsets were rounded to it first
+    return float(np.abs(offsets.astype(np.float32)).max()) * (FLOAT16_EPS + 2.0**-24) + 2.0**-25
 
 
 @dataclass(frozen=True)
@@ -210,23 +218,35 @@ def _points_of(state, style, stride: int) -> Points | None:
     """A system's particles as points (None if none is shown). Points are opaque:
     alpha-blended particles show their colour; additive ones (light) show their hue at a
     brightness that falls with their light only down to half, and the dimmest are left
-    out (:data:`DIM_LIGHT`)."""
-    positions = state.positions[:, ::stride].T
+    out (:data:`DIM_LIGHT`). Packed by :mod:`.packet_kernels` (offsets rounded to float32,
+    then float16: within :func:`quantization_error`; colours within one 8-bit level of
+    :func:`_srgb8`'s)."""
+    positions = state.positions
     if "color" in state:
-        rgba = state["color"][:, ::stride].T.astype(np.float32)
-        rgb = rgba[:, :3]
-        if getattr(style, "blend", None) == "additive":
-            light = rgb * (rgba[:, 3:4] * float(getattr(style, "intensity", 1.0)))
-            peak = light.max(axis=1, keepdims=True)
-            shown = peak[:, 0] >= DIM_LIGHT
-            if not shown.any():
-                return None
-            light, peak, positions = light[shown], peak[shown], positions[shown]
-            rgb = light / peak * (0.5 + 0.5 * np.minimum(peak, 1.0))
+        color = state["color"]
+        additive = getattr(style, "blend", None) == "additive"
+        mode = kernels.LIGHT if additive else kernels.OPAQUE
     else:
-        rgb = np.ones((len(positions), 3), np.float32)
-    origin, offsets = quantize(positions)
-    return Points(origin, offsets, _srgb8(rgb), _diameter(state.radius))
+        color, mode = np.zeros((4, 1), np.float32), kernels.WHITE
+    intensity = float(getattr(style, "intensity", 1.0))
+    taken = -(-positions.shape[1] // stride)
+    blocks = -(-taken // BLOCK)
+    counts = np.zeros(blocks, np.int64)
+    low, high = np.empty((blocks, 3)), np.empty((blocks, 3))
+    args = (positions, color, stride, mode, intensity, DIM_LIGHT)
+    kernels.count_shown(*args, counts, low, high)
+    total = int(counts.sum())
+    if total == 0:
+        return None
+    first = np.concatenate(([0], np.cumsum(counts)[:-1]))
+    low, high = low.min(axis=0), high.max(axis=0)
+    origin = 0.5 * (low + high)
+    offsets = np.empty((total, 3), np.float32)
+    colors = np.empty((total, 3), np.uint8)
+    kernels.pack(*args, first, origin, _SRGB8, offsets, colors)
+    if float(np.max(high - low)) / 2.0 < FLOAT16_MAX:
+        offsets = offsets.astype(np.float16)
+    return Points(origin, offsets, colors, _diameter(state.radius))
 
 
 def _sphere_points(spheres: geometry.Spheres, stride: int) -> Points:
@@ -236,8 +256,10 @@ def _sphere_points(spheres: geometry.Spheres, stride: int) -> Points:
 
 
 def _diameter(radius) -> float:
-    """One point size for a system: twice its median radius [m] (1 cm if none)."""
+    """One point size for a system: twice its median radius [m] (1 cm if none), the
+    median of at most :data:`SIZE_SAMPLE` radii evenly spaced through the system."""
     radius = np.asarray(radius)
+    radius = radius[:: max(1, -(-radius.size // SIZE_SAMPLE))]
     size = 2.0 * float(np.median(radius)) if radius.size else 0.0
     return size if np.isfinite(size) and size > 0 else 0.01
 

@@ -28,6 +28,9 @@ from .sources import LiveSource, Source
 
 __all__ = ["ViewError", "Viewer", "check_port"]
 
+#: Seconds :meth:`Viewer.stop` waits for viser to close its server.
+STOP_WAIT = 2.0
+
 
 class ViewError(RuntimeError):
     """The viewer cannot start (the message says why)."""
@@ -121,7 +124,27 @@ class Viewer:
         self.commands.put(("wake",))
         if self._thread is not None:
             self._thread.join(timeout=10)
-        self.server.stop()
+        self._drop_connections()
+        # viser's stop waits up to 6 s for its event loop, which can itself wait on a
+        # browser's half-open connection; past STOP_WAIT it goes on in the background
+        # (its threads are daemons: they never hold the process up).
+        closing = threading.Thread(target=self.server.stop, name="viser-stop", daemon=True)
+        closing.start()
+        closing.join(STOP_WAIT)
+
+    def _drop_connections(self) -> None:
+        """Abort the browsers' connections at once. Closing them politely waits for each
+        browser to answer, which a page busy drawing a million points does late: viser
+        then waits 6 s before it gives up, and a stopped viewer has nothing more to say.
+        (viser has no public call for this: its connections are reached by name.)"""
+        served = getattr(self.server, "_websock_server", None)
+        loop = getattr(served, "_background_event_loop", None)
+        if loop is None or loop.is_closed():
+            return
+        for connection in tuple(getattr(served, "_live_connections", {}).values()):
+            transport = getattr(connection, "transport", None)
+            if transport is not None:
+                loop.call_soon_threadsafe(transport.abort)
 
     def _run(self) -> None:
         while not self._stopped.is_set():
@@ -444,7 +467,7 @@ class Viewer:
 
     def _disconnected(self, client) -> None:
         self._clients = max(0, self._clients - 1)
-        if self._clients == 0:
+        if self._clients == 0 and not self._stopped.is_set():
             self._was_playing = self.playing
             self.commands.put(("pause",))
             self.log(f"motes view: the browser closed; still serving {self.url} (Ctrl-C stops)")
