@@ -148,13 +148,19 @@ def _wait_for(check, *, timeout: float, what: str, interval: float = 0.1):
         time.sleep(interval)
 
 
-def _stop(process: subprocess.Popen, *, first: int, timeout: float) -> int:
-    """Send ``first`` (a signal), wait up to ``timeout`` [s], then kill: the exit status."""
+def _stop(process: subprocess.Popen, *, first: int, timeout: float, dump: bool = False) -> int:
+    """Send ``first`` (a signal), wait up to ``timeout`` [s], then kill: the exit status.
+    ``dump``: before killing, SIGABRT, which makes a Python run with faulthandler on
+    write every thread's stack to its stderr (why it did not stop)."""
     if process.poll() is None:
         process.send_signal(first)
         try:
             process.wait(timeout)
         except subprocess.TimeoutExpired:
+            if dump:
+                process.send_signal(signal.SIGABRT)
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    process.wait(5)
             process.kill()
             process.wait()
     return process.returncode
@@ -185,7 +191,8 @@ class ViewerProcess:
 
     def __enter__(self) -> ViewerProcess:
         with open(self.stdout_path, "wb") as out, open(self.stderr_path, "wb") as err:
-            self._process = subprocess.Popen(self.command, stdout=out, stderr=err)
+            env = dict(os.environ, PYTHONFAULTHANDLER="1")  # see _stop
+            self._process = subprocess.Popen(self.command, stdout=out, stderr=err, env=env)
         try:
             self.url = _wait_for(self._served_url, timeout=self.start_timeout,
                                  what="the viewer to serve")  # fmt: skip
@@ -204,11 +211,12 @@ class ViewerProcess:
         return None
 
     def __exit__(self, *exc) -> None:
-        self.exit_status = _stop(self._process, first=signal.SIGINT, timeout=self.stop_timeout)
+        self.exit_status = _stop(self._process, first=signal.SIGINT, timeout=self.stop_timeout,
+                                 dump=True)  # fmt: skip
 
-    def log(self) -> str:
-        """The end of what the viewer wrote to stderr."""
-        return _tail(self.stderr_path)
+    def log(self, lines: int = 20) -> str:
+        """The last ``lines`` lines the viewer wrote to stderr."""
+        return _tail(self.stderr_path, lines)
 
 
 class HeadlessChromium:

@@ -84,7 +84,7 @@ def visit(tmp_path_factory) -> Visit:
                                  what="the viewer's frames in the page")  # fmt: skip
         image = _screenshot_until(page, shows_the_fire, timeout=30)
         console = list(page.console)
-    return Visit(status, image, console, viewer.exit_status, viewer.log())
+    return Visit(status, image, console, viewer.exit_status, viewer.log(lines=300))
 
 
 def _screenshot_until(page: DevTools, done, *, timeout: float) -> np.ndarray:
