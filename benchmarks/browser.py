@@ -166,6 +166,15 @@ def _stop(process: subprocess.Popen, *, first: int, timeout: float, dump: bool =
     return process.returncode
 
 
+#: ``python -m motes`` with Ctrl-C restored. A process started where SIGINT is ignored
+#: (a pytest-xdist worker ignores it, and the ignoring is inherited) gets no
+#: KeyboardInterrupt from Python, so the viewer would never see the Ctrl-C it is sent.
+WITH_CTRL_C = (
+    "import runpy, signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+    "sys.argv[0] = 'motes'; runpy.run_module('motes', run_name='__main__', alter_sys=True)"
+)
+
+
 class ViewerProcess:
     """``motes view SCENE --no-browser --port 0 [ARGS]`` in a subprocess.
 
@@ -176,7 +185,7 @@ class ViewerProcess:
 
     def __init__(self, scene: str, *args: str, log_dir: Path, start_timeout: float = 120.0,
                  stop_timeout: float = 30.0):  # fmt: skip
-        self.command = [sys.executable, "-m", "motes", "view", scene, "--no-browser",
+        self.command = [sys.executable, "-c", WITH_CTRL_C, "view", scene, "--no-browser",
                         "--port", "0", *args]  # fmt: skip
         self.stdout_path = Path(log_dir) / "view.stdout"
         self.stderr_path = Path(log_dir) / "view.stderr"

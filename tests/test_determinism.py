@@ -124,7 +124,6 @@ def run_in_subprocess(args, *, cache: Path, threads: int) -> str:
     env = dict(
         os.environ,
         NUMBA_CACHE_DIR=str(cache),
-        NUMBA_OPT="3",  # the release build (the default run compiles at -O1: conftest)
         NUMBA_NUM_THREADS=str(threads),
         NUMBA_DEBUG_CACHE="1",
         PYTHONPATH=path,

@@ -92,10 +92,11 @@ def random_state(rng, n=2000):
 
 # Every scheme with the two richest collider sets, every collider set with one scheme:
 # each combination compiles its own kernel (seconds), so the full product is not run.
-# The default tier keeps every scheme with the richest set and every set with one scheme;
-# the other schemes' ground cases run in the slow tier.
+# The default tier keeps every scheme with the richest set and every other set with one
+# scheme; the ground cases (a plane, as in "responses") and the empty set (every scene
+# without colliders runs it) are in the slow tier.
 CASES = [
-    pytest.param(s, c, marks=pytest.mark.slow) if c == "ground" and s != "semi" else (s, c)
+    pytest.param(s, c, marks=pytest.mark.slow) if c in ("ground", "none") else (s, c)
     for s, c in sorted(
         {(s, c) for s in SCHEMES for c in ("ground", "responses")}
         | {("semi", c) for c in COLLIDER_SETS}
