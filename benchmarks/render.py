@@ -17,7 +17,11 @@ against a baseline measured in the same run:
   back to front with alpha-over, against :func:`numpy_alpha`, a per-particle NumPy loop
   (sort, then one vectorised composite of each sprite's pixel box) timed on a subset and
   scaled by the particle count;
-- **metaballs**: ``benchmarks/metaballs_case.py``'s case when that module is present.
+- **metaballs**: ``benchmarks/metaballs_case.py``'s case when that module is present;
+- **bloom**: :class:`motes.render.bloom.Bloom` (the defaults) on a 1280 × 720 HDR frame
+  with 2,000 sparks above white, against :func:`scipy_bloom`, the same four Gaussians
+  by ``scipy.ndimage.gaussian_filter`` at full size (``bloom_720p_ms``,
+  ``bloom_speedup_vs_scipy``).
 
 Timings are the best of several calls after warm-up calls (the first call of a kernel
 loads or compiles it), with the median beside it. The cores other processes kept busy
@@ -33,6 +37,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from motes.render.bloom import LEVELS, Bloom
 from motes.render.camera import Camera
 from motes.render.frame import Frame
 from motes.render.sprites import SpriteRasterizer, SpriteStyle
@@ -257,6 +262,39 @@ def bench_metaballs(sizes: Sizes, quick: bool) -> dict:
 
 
 # -- report -----------------------------------------------------------------------------
+def scipy_bloom(color: np.ndarray, bloom: Bloom) -> None:
+    """:meth:`Bloom.apply` written with SciPy: each Gaussian at full size."""
+    from scipy.ndimage import gaussian_filter
+
+    bright = np.maximum(color - bloom.threshold, 0.0)
+    sigma = bloom.radius * color.shape[0]
+    glow = sum(gaussian_filter(bright, (sigma / 2**k, sigma / 2**k, 0)) for k in range(LEVELS))
+    color += bloom.strength * (glow / LEVELS - bright)
+
+
+def bench_bloom(sizes: Sizes) -> dict:
+    """Bloom on a 1280 x 720 frame: motes, SciPy (the frame copied afresh each call,
+    the copy's time taken off)."""
+    rng = np.random.default_rng(3)
+    base = rng.uniform(0.0, 0.5, (HEIGHT, WIDTH, 3)).astype(np.float32)
+    base[rng.integers(0, HEIGHT, 2000), rng.integers(0, WIDTH, 2000)] = 20.0
+    work = np.empty_like(base)
+    bloom = Bloom()
+    copy = time_calls(lambda: np.copyto(work, base), repeat=sizes.repeat)
+
+    def timed(apply) -> Timing:
+        def call():
+            np.copyto(work, base)
+            apply(work)
+
+        t = time_calls(call, repeat=sizes.repeat)
+        return Timing(max(t.best - copy.best, 0.0), max(t.median - copy.median, 0.0))
+
+    motes = timed(bloom.apply)
+    scipy = timed(lambda frame: scipy_bloom(frame, bloom))
+    return {"timing": motes, "scipy": scipy, "speedup": scipy.best / motes.best}
+
+
 def _ms(timing: Timing) -> str:
     return f"{1e3 * timing.best:9.2f} ms (median {1e3 * timing.median:.2f})"
 
@@ -351,6 +389,21 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
         ]
         out()
         out(table(rows, title="3. Metaballs (benchmarks/metaballs_case.py)"))
+
+    g = bench_bloom(sizes)
+    figures |= {
+        "bloom_720p_ms": 1e3 * g["timing"].best,
+        "bloom_720p_scipy_ms": 1e3 * g["scipy"].best,
+        "bloom_speedup_vs_scipy": g["speedup"],
+    }
+    rows = [
+        ("frame", f"{WIDTH} x {HEIGHT}, 2,000 sparks above white; Bloom() (radius 0.03)"),
+        ("motes", _ms(g["timing"]) + " (pyramid, compiled)"),
+        ("SciPy baseline", _ms(g["scipy"]) + " (four gaussian_filter at full size)"),
+        ("speed-up", f"{g['speedup']:9.1f}x"),
+    ]
+    out()
+    out(table(rows, title="4. Bloom"))
     return figures
 
 

@@ -88,6 +88,7 @@ from .life import (
 )
 from .particles import Attribute, ParticleStore
 from .render.background import Background
+from .render.bloom import Bloom
 from .render.camera import Camera, Projection
 from .render.renderer import Renderer
 from .render.sprites import SpriteStyle
@@ -102,6 +103,7 @@ __all__ = [
     "AlphaBelow",
     "Attribute",
     "Background",
+    "Bloom",
     "BodyShape",
     "Buoyancy",
     "Burst",

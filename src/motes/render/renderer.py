@@ -22,6 +22,7 @@ from .. import _validate as check
 from ..color import parse_color
 from ..state import ParticleState, as_state
 from .background import Background
+from .bloom import Bloom
 from .camera import Camera
 from .frame import Frame
 from .geometry import casters, draw_geometry
@@ -54,6 +55,9 @@ class Renderer:
     tonemap : {"clamp", "reinhard", "aces"}
     supersample : int
         Anti-aliasing samples per pixel side for opaque geometry, 1 to 4.
+    bloom : Bloom, optional
+        Glow around light brighter than white (:class:`~motes.render.bloom.Bloom`),
+        added to the frame in linear light; None: none.
 
     Examples
     --------
@@ -77,6 +81,7 @@ class Renderer:
         exposure: float = 1.0,
         tonemap: str = "aces",
         supersample: int = 2,
+        bloom: Bloom | None = None,
     ):
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be a Camera, got {camera!r}")
@@ -96,6 +101,9 @@ class Renderer:
         self.exposure = check.positive("exposure", exposure)
         self.tonemap = tonemap
         self.supersample = check.integer("supersample", supersample, low=1)
+        if bloom is not None and not isinstance(bloom, Bloom):
+            raise TypeError(f"bloom must be a Bloom or None, got {bloom!r}")
+        self.bloom = bloom
         # One rasteriser per (system, style) keeps its scratch buffers between frames
         # (tens of MB at a million particles); the entries hold no reference to systems.
         self._rasterizers: dict[tuple[int, int], SpriteRasterizer] = {}
@@ -166,6 +174,8 @@ class Renderer:
             frame.alpha = self._coverage(frame, items)
             if layer is not None:
                 frame.alpha = layer.cover(frame.alpha)
+        if self.bloom is not None:  # light: it covers nothing (the alpha stays)
+            self.bloom.apply(frame.color, exposure=self.exposure)
         return frame
 
     def _coverage(self, frame: Frame, items) -> np.ndarray:

@@ -30,6 +30,7 @@ class SceneRenderer:
             exposure=settings.exposure,
             tonemap=settings.tonemap,
             supersample=settings.supersample,
+            bloom=settings.bloom,
         )
         self.objects = [_drawable(o) for o in scene.objects]
         shown = {name: look for name, look in scene.looks.items() if look.visible}

@@ -56,6 +56,7 @@ class RenderSettings:
     exposure: float = 1.0
     tonemap: str = "aces"
     supersample: int = 2
+    bloom: object = None  # a render.bloom.Bloom, or None
     lights: list = field(default_factory=list)  # DirectionalLight and PointLight
     ambient: tuple | None = None  # (sky, ground) linear RGB; None: the default ambient
 

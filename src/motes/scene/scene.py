@@ -19,6 +19,7 @@ from ..collide.colliders import Collider
 from ..finite import check_finite
 from ..integrate.implicit import SolverError
 from ..io.entry import Entry
+from ..render.bloom import Bloom
 from ..render.camera import Camera, Projection
 from ..render.shading import DirectionalLight, PointLight
 from ..state import ParticleState
@@ -388,6 +389,7 @@ def _render_settings(table: Table | None) -> RenderSettings:
     settings.exposure = table.get("exposure", positive(), 1.0)
     settings.tonemap = table.get("tonemap", one_of("clamp", "reinhard", "aces"), "aces")
     settings.supersample = table.get("supersample", integer(1, 4), 2)
+    settings.bloom = table.get("bloom", _bloom, None)
     for light in table.tables("light"):
         settings.lights.append(_light(light))
     ambient = table.get("ambient", _ambient, None)
@@ -395,6 +397,24 @@ def _render_settings(table: Table | None) -> RenderSettings:
         settings.ambient = ambient
     table.finish()
     return settings
+
+
+def _bloom(value, path) -> Bloom | None:
+    """``bloom = true`` (the defaults), ``false``, or a table of ``strength`` (0-1),
+    ``radius`` (a share of the frame's height) and ``threshold`` (exposed radiance)."""
+    if isinstance(value, bool):
+        return Bloom() if value else None
+    if not isinstance(value, dict):
+        raise SceneError(path, f"must be true, false or a table (strength, radius, threshold), "
+                               f"got {shown(value)}")  # fmt: skip
+    table, default = Table(value, path), Bloom()
+    bloom = Bloom(
+        strength=table.get("strength", number(0.0, 1.0), default.strength),
+        radius=table.get("radius", number(0.001, 0.5), default.radius),
+        threshold=table.get("threshold", number(0.0), default.threshold),
+    )
+    table.finish()
+    return bloom
 
 
 def _ambient(value, path):
