@@ -24,9 +24,11 @@ from ..state import ParticleState, as_state
 from .background import Background
 from .bloom import Bloom
 from .camera import Camera
+from .emitted_light import emitted_lights
 from .frame import Frame
 from .geometry import casters, draw_geometry
 from .lighting import light_particles
+from .shading import default_lights
 from .shadow_pass import prepare
 from .sprites import Blend, SpriteRasterizer, SpriteStyle
 from .tonemap import to_srgb8
@@ -142,15 +144,23 @@ class Renderer:
         volumes = [o for o in objects if isinstance(o, Volume)]
         if volumes:
             objects = [o for o in objects if not isinstance(o, Volume)]
+        lights = self.lights
+        glowing = emitted_lights(items, volumes)
+        if glowing:  # this frame's light from glowing particles and volumes
+            if lights is None:
+                lights = default_lights()
+            elif not isinstance(lights, (list, tuple)):
+                lights = [lights]
+            lights = [*lights, *glowing]
         shadowing = shaded = None
         if objects or volumes or any(style.lit for _, _, style in items):
             casting = [_opacity_of(state) for _, state, style in items if style.shadows]
-            shadowing = shaded = prepare(self.lights, casters(objects), self.camera, casting)
+            shadowing = shaded = prepare(lights, casters(objects), self.camera, casting)
             if volumes:  # geometry and particles in the volumes' shadows too
-                shaded = volume_shadowing(shadowing, self.lights, casting, volumes)
+                shaded = volume_shadowing(shadowing, lights, casting, volumes)
         if objects:
             draw_geometry(
-                frame, self.camera, objects, lights=self.lights, supersample=self.supersample,
+                frame, self.camera, objects, lights=lights, supersample=self.supersample,
                 shadowing=shaded,
             )  # fmt: skip
         layer = None

@@ -146,6 +146,10 @@ class SpriteStyle:
     shadows : bool
         The particles shadow opaque geometry and lit particles through an opacity shadow
         map (their colour's alpha is their opacity; :mod:`motes.render.opacity`).
+    light : float
+        The particles light the scene, >= 0: one point light at the centre of their
+        light, ``light`` times what they give off (:mod:`motes.render.emitted_light`);
+        0: they light nothing.
     """
 
     kind: SpriteKind | str = SpriteKind.SPRITE
@@ -157,6 +161,7 @@ class SpriteStyle:
     intensity: float = 1.0
     lit: bool = False
     shadows: bool = False
+    light: float = 0.0
 
     def __post_init__(self):
         def set_(name, value):
@@ -168,6 +173,7 @@ class SpriteStyle:
         set_("softness", check.non_negative("softness", self.softness))
         set_("shutter", check.non_negative("shutter", self.shutter))
         set_("intensity", check.non_negative("intensity", self.intensity))
+        set_("light", check.non_negative("light", self.light))
         for flag in ("lit", "shadows"):
             if not isinstance(getattr(self, flag), bool):
                 raise TypeError(f"{flag} must be True or False, got {getattr(self, flag)!r}")

@@ -173,6 +173,9 @@ class Volume:
     jitter : bool
         Shift each pixel's samples by a fixed hash of the pixel (deterministic), trading
         the banding of a regular lattice for fine noise.
+    light : float
+        The glow lights the scene, >= 0: one point light at the centre of the glow,
+        ``light`` times what it gives off (:mod:`motes.render.emitted_light`); 0: none.
     """
 
     def __init__(
@@ -190,6 +193,7 @@ class Volume:
         shadows: bool = True,
         shadow_step: float = 1.0,
         jitter: bool = True,
+        light: float = 0.0,
     ):
         self.density = _grid("density", density)
         self.origin = check.vector("origin", origin)
@@ -212,6 +216,7 @@ class Volume:
                 raise TypeError(f"{flag} must be True or False, got {value!r}")
         self.shadows = shadows
         self.jitter = jitter
+        self.light = check.non_negative("light", light)
         self._bricks: np.ndarray | None = None
 
     @classmethod

@@ -141,6 +141,7 @@ def _look(table: Table | None) -> dict | None:
         "emission": table.get("emission", number(0.0), 0.0),
         "step": table.get("step", number(0.05, 8.0), 1.0),
         "shadows": table.get("shadows", boolean, True),
+        "light": table.get("light", number(0.0), 0.0),
     }
     table.finish()
     look["albedo"] = tuple(look["albedo"])

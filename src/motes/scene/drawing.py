@@ -203,6 +203,7 @@ def _style(look: ParticleLook, path: str) -> SpriteStyle:
         texture=texture,
         lit=look.lit,
         shadows=look.shadows,
+        light=look.light,
     )
 
 

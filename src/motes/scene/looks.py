@@ -44,6 +44,7 @@ class ParticleLook:
     visible: bool = True
     lit: bool = False  # shaded by the lights through shadows (smoke), not emissive
     shadows: bool = False  # casts opacity shadows on geometry and lit particles
+    light: float = 0.0  # lights the scene: render.emitted_light (0: no)
     surface: SurfaceLook | None = None  # kind "surface"
     spheres: SpheresLook | None = None  # kind "spheres"
 

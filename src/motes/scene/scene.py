@@ -483,6 +483,7 @@ def _look(table: Table | None, base: Path) -> ParticleLook:
     look.intensity = table.get("intensity", number(0.0), 1.0)
     look.lit = table.get("lit", boolean, False)
     look.shadows = table.get("shadows", boolean, False)
+    look.light = table.get("light", number(0.0), 0.0)
     look.texture = table.get("texture", scene_file(base, what="image file"), None)
     look.visible = table.get("visible", boolean, True)
     table.finish()
