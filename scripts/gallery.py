@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: Where in the run each still is taken (fraction of the frames), where 0.6 misses the
 #: moment that shows the effect.
 STILL_AT = {
-    "explosion": 0.15,
+    "explosion": 0.1,
     "galaxies": 0.65,
     "fireworks": 0.5,
     "curtain": 0.85,
