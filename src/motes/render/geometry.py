@@ -29,6 +29,8 @@ from ._raster import CORNER, LINE_SIZE, draw_tiles, project_vertices, setup_line
 from .camera import Camera
 from .frame import Frame
 from .shading import (
+    LIGHT_OPACITY,
+    LIGHT_SHADOW,
     SURFACE_SIZE,
     AmbientLight,
     DirectionalLight,
@@ -37,7 +39,7 @@ from .shading import (
     rgb,
     surface_row,
 )
-from .shadows import Shadowing, unshadowed
+from .shadows import Shadowing, empty_maps, unshadowed
 from .tiles import bin_boxes
 
 __all__ = ["Box", "Capsule", "Ground", "Lines", "Mesh", "Sphere", "draw_geometry"]
@@ -443,9 +445,18 @@ class Lines:
         ``t`` standing for the fibre: diffuse ``colour * sin(t, l)`` and a highlight
         ``specular * (sin(t, l) sin(t, e) - cos(t, l) cos(t, e))^shininess`` in the
         light's colour (``l`` toward the light, ``e`` toward the eye), plus the ambient
-        light times the colour. Not shadowed.
+        light times the colour. Shadowed, at each segment end, by the frame's shadow and
+        opacity maps (geometry, shadow-casting particles, and strands that cast): each
+        end's colour scaled by the share of the light that reaches it.
     specular, shininess : float
         The highlight's strength (>= 0) and exponent (> 0), for ``"hair"``.
+    shadow_radius : float
+        The strands cast soft shadows (on geometry, lit particles and themselves) through
+        the opacity maps, as blobs of this radius [m] at the segments' midpoints, >= 0;
+        0: they cast none. About half a segment's length makes a strand a continuous
+        occluder.
+    shadow_opacity : float
+        Opacity of each blob, in [0, 1] (hair is dense: a little each).
     """
 
     def __init__(
@@ -459,6 +470,8 @@ class Lines:
         shading: str = "flat",
         specular: float = 0.25,
         shininess: float = 60.0,
+        shadow_radius: float = 0.0,
+        shadow_opacity: float = 0.2,
     ):
         pts = check.points("points", points, min_rows=1)
         if segments is None:
@@ -494,6 +507,15 @@ class Lines:
         self.shading = check.choice("shading", shading, ("flat", "hair"))
         self.specular = check.non_negative("specular", specular)
         self.shininess = check.positive("shininess", shininess)
+        self.shadow_radius = check.non_negative("shadow_radius", shadow_radius)
+        self.shadow_opacity = check.real("shadow_opacity", shadow_opacity, low=0.0, high=1.0)
+
+    def opacity_casters(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What the opacity maps take of strands that cast shadows: blob centres (m, 3)
+        at the segments' midpoints, radii (m,) and opacities (m,)."""
+        m = len(self.segments)
+        centres = self.ends().mean(axis=1)
+        return centres, np.full(m, self.shadow_radius), np.full(m, self.shadow_opacity)
 
     def lit(self, camera: Camera, lights) -> Lines:
         """These lines with each segment end's colour lit as a fibre (``shading =
@@ -612,10 +634,15 @@ def draw_geometry(
     ss = check.integer("supersample", supersample, low=1)
     if ss > 4:
         raise ValueError(f"supersample must be <= 4, got {supersample}")
+    if shadowing is None:
+        shadowing = unshadowed(lights)
     sets, line_sets = [], []
     for i, obj in enumerate(objects):
         if isinstance(obj, Lines):
-            line_sets.append(obj.lit(camera, lights))
+            lit = obj.lit(camera, lights)
+            if obj.shading == "hair":  # a lit copy: its colours are its own
+                lit.colors = lit.colors * _light_share(shadowing, lit.ends())
+            line_sets.append(lit)
         elif isinstance(obj, (Ground, Sphere, Spheres, Capsule, Box, Mesh)):
             sets.append(obj.triangles(camera))
         else:
@@ -625,8 +652,6 @@ def draw_geometry(
             )
     positions, normals, colors, faces, face_surface, surfaces = _combine(sets)
     ends, seg_colors, widths = _combine_lines(line_sets)
-    if shadowing is None:
-        shadowing = unshadowed(lights)
 
     cam = camera.packed()
     view = np.empty_like(positions)
@@ -651,6 +676,26 @@ def draw_geometry(
         positions, normals, colors, faces, face_surface, face_normal, surfaces, shadowing.lights,
         shadowing.ambient, shadowing.arrays, lines, seg_colors, frame.color, frame.depth,
     )  # fmt: skip
+
+
+def _light_share(shadowing: Shadowing, ends: np.ndarray) -> np.ndarray:
+    """(m, 2, 3) share of the light reaching each segment end through ``shadowing``'s
+    maps: the light a white point there receives over what it would unshadowed (ambient
+    included in both, so a point in full shadow keeps its ambient share)."""
+    from .lighting import light_particles
+
+    points = np.ascontiguousarray(ends.reshape(-1, 3), dtype=np.float64)
+    if len(points) == 0 or (len(shadowing.arrays[0]) == 0 and len(shadowing.arrays[3]) == 0):
+        return np.ones((len(ends), 2, 1))
+    x, y, z = (np.ascontiguousarray(points[:, k]) for k in range(3))
+    white = np.ones((len(points), 3), np.float32)
+    reached, free = np.empty_like(white), np.empty_like(white)
+    light_particles(shadowing.lights, shadowing.ambient, shadowing.arrays, x, y, z, white, reached)
+    plain = shadowing.lights.copy()
+    plain[:, LIGHT_SHADOW] = plain[:, LIGHT_OPACITY] = -1.0  # no map
+    light_particles(plain, shadowing.ambient, empty_maps(), x, y, z, white, free)
+    share = np.clip(reached / np.maximum(free, 1e-12), 0.0, 1.0)
+    return share.reshape(len(ends), 2, 3)
 
 
 def casters(objects) -> list:

@@ -155,6 +155,7 @@ class Renderer:
         shadowing = shaded = None
         if objects or volumes or any(style.lit for _, _, style in items):
             casting = [_opacity_of(state) for _, state, style in items if style.shadows]
+            casting += [o.opacity_casters() for o in objects if getattr(o, "shadow_radius", 0)]
             shadowing = shaded = prepare(lights, casters(objects), self.camera, casting)
             if volumes:  # geometry and particles in the volumes' shadows too
                 shaded = volume_shadowing(shadowing, lights, casting, volumes)

@@ -305,8 +305,10 @@ def build_cloth(table: Table, context: BuildContext) -> ClothBody:
 class HairBody(Body):
     """:class:`~motes.hair.Hair` on its head in a scene."""
 
-    def __init__(self, hair: Hair, *, color, tip_color, width: float, head_color):
+    def __init__(self, hair: Hair, *, color, tip_color, width: float, head_color,
+                 shadow_radius: float = 0.0, shadow_opacity: float = 0.2):  # fmt: skip
         self.hair = hair
+        self.shadow_radius, self.shadow_opacity = shadow_radius, shadow_opacity
         self.width = width
         self.head_color = head_color
         p = hair.per_strand
@@ -337,7 +339,8 @@ class HairBody(Body):
             features.append(geometry.Sphere(eye, 0.1 * radius, color=(0.02, 0.02, 0.03)))
         lines = geometry.Lines(
             self.hair.position.T, self.segments, point_colors=self.point_colors,
-            width=self.widths, shading="hair",
+            width=self.widths, shading="hair", shadow_radius=self.shadow_radius,
+            shadow_opacity=self.shadow_opacity,
         )  # fmt: skip
         return [*features, lines]
 
@@ -420,4 +423,6 @@ def build_hair(table: Table, context: BuildContext) -> HairBody:
         tip_color=table.get("tip_color", color, (0.55, 0.38, 0.2, 1.0))[:3],
         width=table.get("width", positive(), 1.5),
         head_color=head_color,
+        shadow_radius=table.get("shadow_radius", number(0.0), 0.0),
+        shadow_opacity=table.get("shadow_opacity", number(0.0, 1.0), 0.2),
     )
