@@ -21,7 +21,10 @@ against a baseline measured in the same run:
 - **bloom**: :class:`motes.render.bloom.Bloom` (the defaults) on a 1280 × 720 HDR frame
   with 2,000 sparks above white, against :func:`scipy_bloom`, the same four Gaussians
   by ``scipy.ndimage.gaussian_filter`` at full size (``bloom_720p_ms``,
-  ``bloom_speedup_vs_scipy``).
+  ``bloom_speedup_vs_scipy``);
+- **ambient occlusion**: :class:`motes.render.occlusion.AmbientOcclusion` (the
+  defaults) on the 1280 × 720 depth of a ground, a sphere and a box
+  (``occlusion_720p_ms``; no baseline: a figure to watch, not a ratio).
 
 Timings are the best of several calls after warm-up calls (the first call of a kernel
 loads or compiles it), with the median beside it. The cores other processes kept busy
@@ -295,6 +298,20 @@ def bench_bloom(sizes: Sizes) -> dict:
     return {"timing": motes, "scipy": scipy, "speedup": scipy.best / motes.best}
 
 
+def bench_occlusion(sizes: Sizes) -> Timing:
+    """Ambient occlusion of a 1280 x 720 depth buffer: a ground, a sphere, a box."""
+    from motes.render import geometry
+    from motes.render.occlusion import AmbientOcclusion
+    from motes.render.renderer import Renderer
+
+    cam = Camera((0.0, 1.2, 3.5), (0.0, 0.3, 0.0), resolution=(WIDTH, HEIGHT))
+    objects = [geometry.Ground(0.0), geometry.Sphere((0.0, 0.4, 0.0), 0.4),
+               geometry.Box((1.0, 0.25, -0.3), (0.5, 0.5, 0.5))]  # fmt: skip
+    depth = Renderer(cam, supersample=1).render_hdr([], objects).depth
+    occlusion = AmbientOcclusion()
+    return time_calls(lambda: occlusion.occlusion(depth, cam), repeat=sizes.repeat)
+
+
 def _ms(timing: Timing) -> str:
     return f"{1e3 * timing.best:9.2f} ms (median {1e3 * timing.median:.2f})"
 
@@ -404,6 +421,13 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
     ]
     out()
     out(table(rows, title="4. Bloom"))
+
+    o = bench_occlusion(sizes)
+    figures |= {"occlusion_720p_ms": 1e3 * o.best, "occlusion_720p_median_ms": 1e3 * o.median}
+    out()
+    out(table([("frame", f"{WIDTH} x {HEIGHT}: a ground, a sphere, a box; defaults"),
+               ("motes", _ms(o) + " (half size, 16 samples, blur, upsample)")],
+              title="5. Ambient occlusion"))  # fmt: skip
     return figures
 
 

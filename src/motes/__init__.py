@@ -90,6 +90,7 @@ from .particles import Attribute, ParticleStore
 from .render.background import Background
 from .render.bloom import Bloom
 from .render.camera import Camera, Projection
+from .render.occlusion import AmbientOcclusion
 from .render.renderer import Renderer
 from .render.sprites import SpriteStyle
 from .rigid import BodyShape, add_ragdoll
@@ -101,6 +102,7 @@ from .system import ParticleSystem
 __all__ = [
     "Airflow",
     "AlphaBelow",
+    "AmbientOcclusion",
     "Attribute",
     "Background",
     "Bloom",

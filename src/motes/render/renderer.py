@@ -28,6 +28,7 @@ from .emitted_light import emitted_lights
 from .frame import Frame
 from .geometry import casters, draw_geometry
 from .lighting import light_particles
+from .occlusion import AmbientOcclusion
 from .shading import default_lights
 from .shadow_pass import prepare
 from .sprites import Blend, SpriteRasterizer, SpriteStyle
@@ -57,6 +58,9 @@ class Renderer:
     tonemap : {"clamp", "reinhard", "aces"}
     supersample : int
         Anti-aliasing samples per pixel side for opaque geometry, 1 to 4.
+    ambient_occlusion : AmbientOcclusion, optional
+        Soft darkening where opaque surfaces meet
+        (:class:`~motes.render.occlusion.AmbientOcclusion`); None: none.
     bloom : Bloom, optional
         Glow around light brighter than white (:class:`~motes.render.bloom.Bloom`),
         added to the frame in linear light; None: none.
@@ -84,6 +88,7 @@ class Renderer:
         tonemap: str = "aces",
         supersample: int = 2,
         bloom: Bloom | None = None,
+        ambient_occlusion: AmbientOcclusion | None = None,
     ):
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be a Camera, got {camera!r}")
@@ -106,6 +111,11 @@ class Renderer:
         if bloom is not None and not isinstance(bloom, Bloom):
             raise TypeError(f"bloom must be a Bloom or None, got {bloom!r}")
         self.bloom = bloom
+        if ambient_occlusion is not None and not isinstance(ambient_occlusion, AmbientOcclusion):
+            raise TypeError(
+                f"ambient_occlusion must be an AmbientOcclusion or None, got {ambient_occlusion!r}"
+            )
+        self.ambient_occlusion = ambient_occlusion
         # One rasteriser per (system, style) keeps its scratch buffers between frames
         # (tens of MB at a million particles); the entries hold no reference to systems.
         self._rasterizers: dict[tuple[int, int], SpriteRasterizer] = {}
@@ -164,6 +174,8 @@ class Renderer:
                 frame, self.camera, objects, lights=lights, supersample=self.supersample,
                 shadowing=shaded,
             )  # fmt: skip
+            if self.ambient_occlusion is not None:
+                self.ambient_occlusion.apply(frame.color, frame.depth, self.camera)
         layer = None
         if volumes:
             layer = draw_volumes(frame, self.camera, volumes, shadowing, froxels=bool(items))

@@ -31,6 +31,7 @@ class SceneRenderer:
             tonemap=settings.tonemap,
             supersample=settings.supersample,
             bloom=settings.bloom,
+            ambient_occlusion=settings.ambient_occlusion,
         )
         self.objects = [_drawable(o) for o in scene.objects]
         shown = {name: look for name, look in scene.looks.items() if look.visible}

@@ -58,6 +58,7 @@ class RenderSettings:
     tonemap: str = "aces"
     supersample: int = 2
     bloom: object = None  # a render.bloom.Bloom, or None
+    ambient_occlusion: object = None  # a render.occlusion.AmbientOcclusion, or None
     lights: list = field(default_factory=list)  # DirectionalLight and PointLight
     ambient: tuple | None = None  # (sky, ground) linear RGB; None: the default ambient
 

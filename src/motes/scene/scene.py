@@ -21,6 +21,7 @@ from ..integrate.implicit import SolverError
 from ..io.entry import Entry
 from ..render.bloom import Bloom
 from ..render.camera import Camera, Projection
+from ..render.occlusion import AmbientOcclusion
 from ..render.shading import DirectionalLight, PointLight
 from ..state import ParticleState
 from ..system import ParticleSystem
@@ -390,6 +391,7 @@ def _render_settings(table: Table | None) -> RenderSettings:
     settings.tonemap = table.get("tonemap", one_of("clamp", "reinhard", "aces"), "aces")
     settings.supersample = table.get("supersample", integer(1, 4), 2)
     settings.bloom = table.get("bloom", _bloom, None)
+    settings.ambient_occlusion = table.get("ambient_occlusion", _occlusion, None)
     for light in table.tables("light"):
         settings.lights.append(_light(light))
     ambient = table.get("ambient", _ambient, None)
@@ -415,6 +417,23 @@ def _bloom(value, path) -> Bloom | None:
     )
     table.finish()
     return bloom
+
+
+def _occlusion(value, path) -> AmbientOcclusion | None:
+    """``ambient_occlusion = true`` (the defaults), ``false``, or a table of ``radius``
+    [m] and ``strength`` (0-1)."""
+    if isinstance(value, bool):
+        return AmbientOcclusion() if value else None
+    if not isinstance(value, dict):
+        raise SceneError(path, f"must be true, false or a table (radius, strength), "
+                               f"got {shown(value)}")  # fmt: skip
+    table, default = Table(value, path), AmbientOcclusion()
+    occlusion = AmbientOcclusion(
+        radius=table.get("radius", positive(), default.radius),
+        strength=table.get("strength", number(0.0, 1.0), default.strength),
+    )
+    table.finish()
+    return occlusion
 
 
 def _ambient(value, path):
