@@ -24,7 +24,12 @@ against a baseline measured in the same run:
   ``bloom_speedup_vs_scipy``);
 - **ambient occlusion**: :class:`motes.render.occlusion.AmbientOcclusion` (the
   defaults) on the 1280 × 720 depth of a ground, a sphere and a box
-  (``occlusion_720p_ms``; no baseline: a figure to watch, not a ratio).
+  (``occlusion_720p_ms``; no baseline: a figure to watch, not a ratio);
+- **fire with shadows**: the built-in ``fire`` at 1280 × 720 after 2 s, over a ground
+  and under a directional light, rendered with its particles casting opacity shadows
+  and the light casting shadow maps, against the same frame with both off:
+  ``fire_shadow_cost_ratio`` (target <= 1.5), ``fire_shadows_ms``,
+  ``fire_no_shadows_ms``.
 
 Timings are the best of several calls after warm-up calls (the first call of a kernel
 loads or compiles it), with the median beside it. The cores other processes kept busy
@@ -312,6 +317,44 @@ def bench_occlusion(sizes: Sizes) -> Timing:
     return time_calls(lambda: occlusion.occlusion(depth, cam), repeat=sizes.repeat)
 
 
+#: What the fire gains for the shadow benchmark: a ground and a light (shadows per key).
+FIRE_GROUND = """
+[[collider]]
+type = "plane"
+normal = [0, 1, 0]
+offset = -0.05
+visible = true
+color = "#5a5048"
+
+[[render.light]]
+direction = [-0.6, -1.0, -0.3]
+intensity = 1.0
+shadows = {shadows}
+"""
+
+
+def bench_fire_shadows(sizes: Sizes, quick: bool) -> dict:
+    """The fire over a ground, its frame drawn with and without shadows."""
+    from motes.scene import load_scene
+    from motes.scene.scene import builtin_text
+
+    frames = 10 if quick else 60
+    size = (320, 180) if quick else (WIDTH, HEIGHT)
+    repeat = max(3, sizes.repeat // 2)
+    timings = {}
+    for shadows in (True, False):
+        text = builtin_text("fire") + FIRE_GROUND.format(shadows=str(shadows).lower())
+        scene = load_scene(text, overrides={"system.flame.render.shadows": shadows})
+        for _ in range(frames):
+            scene.advance()
+        timings[shadows] = time_calls(lambda s=scene: s.render(size), repeat=repeat)
+    return {
+        "with": timings[True],
+        "without": timings[False],
+        "ratio": timings[True].best / timings[False].best,
+    }
+
+
 def _ms(timing: Timing) -> str:
     return f"{1e3 * timing.best:9.2f} ms (median {1e3 * timing.median:.2f})"
 
@@ -428,6 +471,21 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
     out(table([("frame", f"{WIDTH} x {HEIGHT}: a ground, a sphere, a box; defaults"),
                ("motes", _ms(o) + " (half size, 16 samples, blur, upsample)")],
               title="5. Ambient occlusion"))  # fmt: skip
+
+    s = bench_fire_shadows(sizes, quick)
+    figures |= {
+        "fire_shadows_ms": 1e3 * s["with"].best,
+        "fire_no_shadows_ms": 1e3 * s["without"].best,
+        "fire_shadow_cost_ratio": s["ratio"],
+    }
+    rows = [
+        ("frame", f"built-in fire over a ground, {WIDTH} x {HEIGHT}, after 2 s"),
+        ("with shadows", _ms(s["with"]) + " (particles' opacity maps, the light's shadow map)"),
+        ("without", _ms(s["without"])),
+        ("ratio", f"{s['ratio']:9.2f}x (target <= 1.5)"),
+    ]
+    out()
+    out(table(rows, title="6. Fire with and without shadows"))
     return figures
 
 

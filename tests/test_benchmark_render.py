@@ -18,6 +18,10 @@ REQUIRED = (
     "additive_1m_1thread_ms",
     "alpha_100k_ms",
     "alpha_100k_speedup_vs_numpy",
+    "bloom_720p_ms",
+    "bloom_speedup_vs_scipy",
+    "occlusion_720p_ms",
+    "fire_shadow_cost_ratio",
 )
 
 
