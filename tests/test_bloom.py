@@ -76,6 +76,10 @@ def test_bad_values_are_named():
         Bloom(strength=1.5)
     with pytest.raises(ValueError, match=r"bloom\.radius"):
         Bloom(radius=0.0)
+    with pytest.raises(ValueError, match=r"color must be .*\(height, width, 3\) float32"):
+        Bloom().apply(np.zeros((9, 16, 4), np.float32))  # RGBA
+    with pytest.raises(ValueError, match="color must be"):
+        Bloom().apply(np.zeros((9, 16, 3)))  # float64
     with pytest.raises(TypeError, match="bloom must be a Bloom"):
         mo.Renderer(mo.Camera((0, 0, 3), (0, 0, 0), resolution=(32, 18)), bloom=0.3)
 

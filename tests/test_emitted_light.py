@@ -31,6 +31,11 @@ def test_particles_light_from_the_centre_of_their_light():
     power = 3.0 * 2 * np.array([1.0, 0.5, 0.25]) * 0.5 * 2.0 * np.pi * 0.1**2
     assert np.allclose(light.color * light.intensity, power)
     assert particle_light(state, mo.SpriteStyle(blend="additive")) is None  # light 0
+    # no colour field: drawn white, so glowing white
+    plain = ParticleState(np.arange(2, dtype=np.int64), state.positions, np.zeros((3, 2)),
+                          np.full(2, 0.1))  # fmt: skip
+    white = particle_light(plain, mo.SpriteStyle(light=1.0))
+    assert np.allclose(white.color * white.intensity, 2 * np.pi * 0.1**2)
 
 
 def test_a_hot_volume_lights_from_its_glow():

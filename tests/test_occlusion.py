@@ -61,5 +61,10 @@ def test_bad_values_are_named():
         AmbientOcclusion(radius=0.0)
     with pytest.raises(ValueError, match=r"ambient_occlusion\.strength"):
         AmbientOcclusion(strength=2.0)
+    with pytest.raises(ValueError, match=r"depth must be \(height, width\) = \(180, 320\)"):
+        AmbientOcclusion().occlusion(np.zeros((90, 160), np.float32), CAMERA)
+    depth = np.full((180, 320), np.inf, np.float32)
+    with pytest.raises(ValueError, match="color must be"):
+        AmbientOcclusion().apply(np.zeros((180, 320), np.float32), depth, CAMERA)
     with pytest.raises(TypeError, match="ambient_occlusion must be"):
         mo.Renderer(CAMERA, ambient_occlusion=0.5)

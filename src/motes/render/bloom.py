@@ -56,6 +56,7 @@ class Bloom:
 
     def apply(self, color: np.ndarray, *, exposure: float = 1.0) -> None:
         """Add the glow to ``color`` (height, width, 3) float32 linear light, in place."""
+        _check_image("color", color)
         threshold = np.float32(self.threshold / exposure)
         half = np.empty(((color.shape[0] + 1) // 2, (color.shape[1] + 1) // 2, 3), np.float32)
         if self.strength == 0.0 or not kern.halve_above(color, threshold, half):
@@ -102,3 +103,21 @@ def _blurred(image: np.ndarray, sigma: float) -> np.ndarray:
     out = np.empty_like(image)
     kern.blur_columns(across, weights, out)
     return out
+
+
+def _check_image(name: str, image) -> None:
+    """``image`` must be a writable, C-contiguous (height, width, 3) float32 array."""
+    if not (
+        isinstance(image, np.ndarray)
+        and image.dtype == np.float32
+        and image.ndim == 3
+        and image.shape[2] == 3
+        and image.flags.c_contiguous
+        and image.flags.writeable
+    ):
+        shape = getattr(image, "shape", None)
+        dtype = getattr(image, "dtype", type(image).__name__)
+        raise ValueError(
+            f"{name} must be a writable C-contiguous (height, width, 3) float32 array, "
+            f"got {dtype} {shape}"
+        )

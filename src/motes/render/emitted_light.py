@@ -32,9 +32,11 @@ def particle_light(state, style) -> PointLight | None:
     """The point light of ``state``'s particles drawn with ``style`` (None when
     ``style.light`` is 0 or they give no light)."""
     gain = float(getattr(style, "light", 0.0))
-    if gain <= 0.0 or state.count == 0 or "color" not in state:
+    if gain <= 0.0 or state.count == 0:
         return None
-    rgba = np.asarray(state["color"], np.float64)
+    # without a colour field particles are drawn white, so they glow white
+    white = np.ones((4, state.count))
+    rgba = np.asarray(state["color"], np.float64) if "color" in state else white
     radius = np.asarray(state.radius, np.float64)
     power = rgba[:3] * (rgba[3] * float(style.intensity) * np.pi * radius**2)  # (3, n)
     return _light(np.asarray(state.positions, np.float64), power, gain)

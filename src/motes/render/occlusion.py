@@ -29,6 +29,7 @@ from numba import prange
 
 from .. import _validate as check
 from .._jit import device, parallel_kernel
+from .bloom import _check_image
 from .camera import HEIGHT, ORTHO, SCALE, WIDTH
 
 #: Hemisphere samples per pixel.
@@ -59,7 +60,14 @@ class AmbientOcclusion:
             object.__setattr__(self, name, value)
 
     def occlusion(self, depth: np.ndarray, camera) -> np.ndarray:
-        """(height, width) float32 share occluded, in [0, 1] (0 off geometry)."""
+        """(height, width) float32 share occluded, in [0, 1] (0 off geometry), of a depth
+        buffer (height, width) [m] (``inf``: no geometry) seen by ``camera``."""
+        depth = np.asarray(depth)
+        if depth.ndim != 2 or depth.shape[::-1] != tuple(camera.resolution):
+            raise ValueError(
+                f"depth must be (height, width) = {camera.resolution[::-1]} of the camera, "
+                f"got {depth.shape}"
+            )
         # no geometry: -1 (the kernels' fast math assumes finite numbers)
         depth = np.where(np.isfinite(depth), depth, np.float32(-1.0)).astype(np.float32)
         # at half size (a quarter of the work), then back by the nearest depth
@@ -74,7 +82,10 @@ class AmbientOcclusion:
         return out
 
     def apply(self, color: np.ndarray, depth: np.ndarray, camera) -> np.ndarray:
-        """Darken ``color`` (height, width, 3) in place; returns the occlusion."""
+        """Darken ``color`` (height, width, 3) float32 in place; returns the occlusion."""
+        _check_image("color", color)
+        if color.shape[:2] != np.shape(depth):
+            raise ValueError(f"color {color.shape[:2]} and depth {np.shape(depth)} must match")
         share = self.occlusion(depth, camera)
         color *= (1.0 - np.float32(self.strength) * share)[..., None]
         return share

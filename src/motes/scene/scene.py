@@ -401,39 +401,28 @@ def _render_settings(table: Table | None) -> RenderSettings:
     return settings
 
 
-def _bloom(value, path) -> Bloom | None:
-    """``bloom = true`` (the defaults), ``false``, or a table of ``strength`` (0-1),
-    ``radius`` (a share of the frame's height) and ``threshold`` (exposed radiance)."""
-    if isinstance(value, bool):
-        return Bloom() if value else None
-    if not isinstance(value, dict):
-        raise SceneError(path, f"must be true, false or a table (strength, radius, threshold), "
-                               f"got {shown(value)}")  # fmt: skip
-    table, default = Table(value, path), Bloom()
-    bloom = Bloom(
-        strength=table.get("strength", number(0.0, 1.0), default.strength),
-        radius=table.get("radius", number(0.001, 0.5), default.radius),
-        threshold=table.get("threshold", number(0.0), default.threshold),
-    )
-    table.finish()
-    return bloom
+def _effect(factory, readers: dict):
+    """Reader of a render effect (bloom, ambient occlusion): ``true`` (its defaults),
+    ``false`` (none) or a table of the keys in ``readers`` (key -> reader)."""
+
+    def read(value, path):
+        if isinstance(value, bool):
+            return factory() if value else None
+        if not isinstance(value, dict):
+            raise SceneError(path, f"must be true, false or a table ({', '.join(readers)}), "
+                                   f"got {shown(value)}")  # fmt: skip
+        table, default = Table(value, path), factory()
+        made = factory(**{k: table.get(k, r, getattr(default, k)) for k, r in readers.items()})
+        table.finish()
+        return made
+
+    return read
 
 
-def _occlusion(value, path) -> AmbientOcclusion | None:
-    """``ambient_occlusion = true`` (the defaults), ``false``, or a table of ``radius``
-    [m] and ``strength`` (0-1)."""
-    if isinstance(value, bool):
-        return AmbientOcclusion() if value else None
-    if not isinstance(value, dict):
-        raise SceneError(path, f"must be true, false or a table (radius, strength), "
-                               f"got {shown(value)}")  # fmt: skip
-    table, default = Table(value, path), AmbientOcclusion()
-    occlusion = AmbientOcclusion(
-        radius=table.get("radius", positive(), default.radius),
-        strength=table.get("strength", number(0.0, 1.0), default.strength),
-    )
-    table.finish()
-    return occlusion
+_bloom = _effect(
+    Bloom, {"strength": number(0.0, 1.0), "radius": number(0.001, 0.5), "threshold": number(0.0)}
+)
+_occlusion = _effect(AmbientOcclusion, {"radius": positive(), "strength": number(0.0, 1.0)})
 
 
 def _ambient(value, path):
