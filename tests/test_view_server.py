@@ -232,3 +232,27 @@ def test_a_cloud_is_sized_by_radius_and_updated_in_place(viewer):
         kept += viewer._nodes[node] is handle and fits(count, held)
         handle = viewer._nodes[node]
     assert kept >= 4  # 100 births a frame on about 600: mostly in place
+
+
+def test_stopping_drops_a_browser_that_does_not_read(viewer):
+    """A page too busy to answer would hold viser's polite close for seconds: the
+    viewer aborts the connection instead."""
+    import viser
+    import websockets.sync.client
+
+    viewer.start()
+    client = websockets.sync.client.connect(
+        f"ws://127.0.0.1:{viewer.port}", subprotocols=[f"viser-v{viser.__version__}"],
+        max_size=None,
+    )  # fmt: skip
+    served = viewer.server._websock_server
+    deadline = time.monotonic() + 10
+    while not served._live_connections and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert served._live_connections  # connected, reading nothing
+    viewer._drop_connections()
+    deadline = time.monotonic() + 5
+    while served._live_connections and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not served._live_connections  # aborted, not waiting on the page
+    client.close()

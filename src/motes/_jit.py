@@ -52,7 +52,7 @@ from numba.extending import intrinsic, overload
 #: functions).
 FASTMATH = frozenset({"nnan", "ninf", "nsz", "arcp", "afn"})
 
-# Threading layer: OpenMP first. A parallel launch costs 2-10 µs with OpenMP on the
+# Threading layer: OpenMP first. A parallel launch costs 5-10 µs with OpenMP on the
 # 2-core reference machine against 50-120 µs with TBB, Numba's first choice where TBB is
 # installed, and motes launches many short kernels (a 512² grid-fluid step about 100).
 # Results do not depend on the layer (kernels split work in fixed blocks, see above).

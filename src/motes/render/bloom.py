@@ -22,6 +22,10 @@ import numpy as np
 from .. import _validate as check
 from . import bloom_kernels as kern
 
+#: A threshold nothing exceeds: :func:`bloom_kernels.double_add` then only adds (finite:
+#: the kernels' fast math assumes no infinities).
+NO_THRESHOLD = np.float32(3.0e38)
+
 #: Gaussians summed, their standard deviations radius, radius/2, radius/4, ...
 LEVELS = 4
 
@@ -83,7 +87,7 @@ def glare_half(half: np.ndarray, sigma: float) -> np.ndarray:
     for level in range(deepest, 0, -1):
         here = np.zeros_like(pyramid[level])
         if total is not None:
-            kern.double_add(total, here, np.float32(1.0), np.float32(np.inf))
+            kern.double_add(total, here, np.float32(1.0), NO_THRESHOLD)
         for k in range(LEVELS):
             if min(level_of[k], deepest) == level:
                 width = sigma / 2.0**k / 2.0**level

@@ -114,7 +114,7 @@ def blur_columns(src, weights, dst):
 def double_add(coarse, fine, scale, threshold):
     """``fine += scale · (up - max(fine - threshold, 0))`` with ``up`` = ``coarse``
     doubled bilinearly (between the coarse pixels' centres, held at the edges); ``fine``
-    is at most twice ``coarse`` each way. ``threshold`` = inf: ``fine += scale · up``."""
+    is at most twice ``coarse`` each way. A huge ``threshold``: ``fine += scale · up``."""
     h, w = coarse.shape[:2]
     height, width = fine.shape[:2]
     for y in prange(height):

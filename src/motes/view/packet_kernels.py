@@ -23,6 +23,9 @@ from .._jit import BLOCK, block_count, device, parallel_kernel
 
 WHITE, OPAQUE, LIGHT = 0, 1, 2
 
+#: Start of a block's bounding box (beyond any position).
+FAR = 1e300
+
 #: Entries of the linear-to-sRGB table: a linear value v in [0, 1] is encoded as
 #: ``SRGB8[round(v · (SRGB_LEVELS - 1))]``, within one 8-bit level of the exact encoding
 #: (the steepest part of the curve, near 0, moves 0.8 levels a step).
@@ -55,13 +58,13 @@ def _shown(color, p, mode, intensity, dim):
 @parallel_kernel
 def count_shown(positions, color, stride, mode, intensity, dim, counts, low, high):
     """Per block of the taken particles: ``counts[b]`` shown, their box ``low[b]``,
-    ``high[b]`` (3,) (±inf for an empty block)."""
+    ``high[b]`` (3,) (±:data:`FAR` for an empty block)."""
     m = (positions.shape[1] + stride - 1) // stride
     for b in prange(block_count(m)):
         start, stop = b * BLOCK, min(m, (b + 1) * BLOCK)
         count = 0
-        lo = np.full(3, np.inf)
-        hi = np.full(3, -np.inf)
+        lo = np.full(3, FAR)  # finite: the kernels' fast math assumes no infinities
+        hi = np.full(3, -FAR)
         for q in range(start, stop):
             p = q * stride
             if _shown(color, p, mode, intensity, dim):
