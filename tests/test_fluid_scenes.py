@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from motes.render import geometry
+from motes.render.water import Water
 from motes.scene import SceneError, load_scene
 
 SIZE = (96, 54)
@@ -92,6 +93,39 @@ def test_a_fluid_body_from_text_draws_particles_when_asked():
     assert state.count == 64 and state.positions.shape == (3, 64)
     assert state["color"].shape == (4, 64) and state.unit("color") == "1"
     assert scene.counts() == {"water": 64}
+
+
+def test_a_fluid_body_draws_as_clear_water_with_foam():
+    water_look = (
+        '  [body.render]\n  mode = "water"\n  clarity = 0.1\n  foam_kinetic = [0.0, 0.01]\n'
+    )
+    scene = load_scene(SCENE + water_look)
+    body = scene.bodies["water"]
+    for _ in range(6):
+        scene.advance()
+    (water,) = [d for d in body.drawables() if isinstance(d, Water)]
+    assert water.positions.shape == (64, 3) and water.volume == pytest.approx(0.05**3)
+    assert water.clarity == 0.1 and water.radius == pytest.approx(0.05)
+    # the falling block's rim is a crest moving out along its normal: froth, white
+    ((froth, style),) = body.particles()
+    assert 0 < froth.count < 64 and style.lit
+    assert (froth["color"][:3] == 1).all() and (froth["color"][3] > 0).all()
+    image = scene.render((64, 48))
+    plain = load_scene(SCENE).render((64, 48))  # the metaball surface at the start
+    assert image.std() > 2 and not np.array_equal(image, plain)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('mode = "glass"', "must be one of 'particles', 'surface', 'water'"),
+        ("foam_kinetic = [2.0, 1.0]", "must be [low, high] with low < high"),
+        ("clarity = 0", "must be > 0"),
+    ],
+)
+def test_water_look_mistakes_name_the_key(text, message):
+    with pytest.raises(SceneError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        load_scene(SCENE + "  [body.render]\n  " + text + "\n")
 
 
 @pytest.mark.parametrize(

@@ -93,6 +93,7 @@ from .render.camera import Camera, Projection
 from .render.occlusion import AmbientOcclusion
 from .render.renderer import Renderer
 from .render.sprites import SpriteStyle
+from .render.water import Water
 from .rigid import BodyShape, add_ragdoll
 from .rigid import World as RigidWorld
 from .scene import Scene, SceneError, load_scene
@@ -185,6 +186,7 @@ __all__ = [
     "Uniform",
     "UniformGrid",
     "Vortex",
+    "Water",
     "Wind",
     "add_ragdoll",
     "check_finite",

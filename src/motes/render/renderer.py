@@ -1,10 +1,11 @@
 """The renderer: background, opaque geometry and particle systems into one image.
 
 Order of drawing: the background; opaque geometry (which fills the depth buffer);
-volumes (:mod:`.volume`: ray-marched up to that depth); then particle systems,
-alpha-blended ones first (each sorted back to front; systems ordered by their mean depth,
-far first) and additive ones last (order-independent). Colour is accumulated in linear
-light and tone-mapped to sRGB at the end.
+liquids drawn in screen space (:mod:`.water`: they refract what is drawn so far and
+write their surface's depth); volumes (:mod:`.volume`: ray-marched up to that depth);
+then particle systems, alpha-blended ones first (each sorted back to front; systems
+ordered by their mean depth, far first) and additive ones last (order-independent).
+Colour is accumulated in linear light and tone-mapped to sRGB at the end.
 
 Particles of any kind are read through their :class:`~motes.state.ParticleState`: a
 system, a liquid, a cloth, hair or a rigid world (anything with ``particle_state()``),
@@ -34,6 +35,7 @@ from .shadow_pass import prepare
 from .sprites import Blend, SpriteRasterizer, SpriteStyle
 from .tonemap import to_srgb8
 from .volume import Volume, draw_volumes, volume_shadowing
+from .water import Water
 
 _WHITE = np.ones((1, 4), dtype=np.float32)
 
@@ -141,9 +143,11 @@ class Renderer:
         with ``particle_state()`` (a :class:`~motes.system.ParticleSystem`, a liquid,
         cloth, hair, a rigid world) — or ``(particles, SpriteStyle)`` pairs; ``objects``
         opaque geometry (:class:`~motes.render.geometry.Ground`, ``Sphere``, ``Box``,
-        ``Mesh``, ``Lines``) and participating media (:class:`~motes.render.volume.Volume`:
-        drawn after the geometry, before the particles, whose colours then place them
-        behind, inside or in front of it; see :mod:`motes.render.volume`).
+        ``Mesh``, ``Lines``), liquids drawn in screen space
+        (:class:`~motes.render.water.Water`) and participating media
+        (:class:`~motes.render.volume.Volume`: drawn after the geometry, before the
+        particles, whose colours then place them behind, inside or in front of it; see
+        :mod:`motes.render.volume`).
         """
         width, height = self.camera.resolution
         frame = Frame(width, height)
@@ -152,8 +156,9 @@ class Renderer:
         items = self._draw_order(systems)
         objects = list(objects)
         volumes = [o for o in objects if isinstance(o, Volume)]
-        if volumes:
-            objects = [o for o in objects if not isinstance(o, Volume)]
+        waters = [o for o in objects if isinstance(o, Water)]
+        if volumes or waters:
+            objects = [o for o in objects if not isinstance(o, (Volume, Water))]
         lights = self.lights
         glowing = emitted_lights(items, volumes)
         if glowing:  # this frame's light from glowing particles and volumes
@@ -176,6 +181,8 @@ class Renderer:
             )  # fmt: skip
             if self.ambient_occlusion is not None:
                 self.ambient_occlusion.apply(frame.color, frame.depth, self.camera)
+        for water in waters:
+            water.draw(frame, self.camera, lights=lights, background=self.background)
         layer = None
         if volumes:
             layer = draw_volumes(frame, self.camera, volumes, shadowing, froxels=bool(items))

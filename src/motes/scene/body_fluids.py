@@ -3,8 +3,11 @@
 
 The body owns a :class:`motes.fluids.Fluid`, its nozzles (sources that emit layers of
 particles) and shaken tanks, and draws itself as sprites, as one metaball surface per
-phase, or both: with ``spray = true`` the particles in thin places (few neighbours, the
-density below ``spray_below`` of rest) are drawn as sprites and left out of the surface.
+phase, as clear water in screen space (:class:`motes.render.water.Water`, one per
+phase), or a surface and sprites: with ``spray = true`` the particles in thin places
+(few neighbours, the density below ``spray_below`` of rest) are drawn as sprites and
+left out of the surface. The water look also draws foam: white froth on the particles
+where Ihmsen et al.'s potentials say air is mixed in (:mod:`motes.fluids.foam`).
 """
 
 from __future__ import annotations
@@ -15,11 +18,13 @@ import numpy as np
 
 from .. import fluids
 from ..fluids.fluid import check_memory
+from ..fluids.foam import foam
 from ..io.entry import Entry
 from ..render import geometry
 from ..render.metaballs import Metaballs
 from ..render.shading import Material
 from ..render.sprites import SpriteStyle
+from ..render.water import Water
 from ..spatial.index import STRUCTURES
 from ..state import Field
 from .bodies import Body, BuildContext, register
@@ -27,6 +32,7 @@ from .parts import body_forces, placed_mesh
 from .schema import (
     SceneError,
     Table,
+    array_of,
     boolean,
     build,
     color,
@@ -34,6 +40,7 @@ from .schema import (
     number,
     one_of,
     positive,
+    shown,
     vector,
 )
 
@@ -118,6 +125,10 @@ class FluidBody(Body):
         self.look = look
         self.limit = limit
         self.sprite_style = SpriteStyle(kind="sprite", blend="alpha")
+        # Froth: lit by the scene's lights, fading softly into the water it sits on.
+        self.foam_style = SpriteStyle(
+            kind="sprite", blend="alpha", lit=True, softness=look["foam_radius"]
+        )
         self.metaballs = None
         if look["mode"] == "surface":
             self.metaballs = Metaballs.from_radius(
@@ -174,6 +185,8 @@ class FluidBody(Body):
         return s["density"] < self.look["spray_below"] * rest[s["phase"]]
 
     def particles(self) -> list:
+        if self.look["mode"] == "water":
+            return self._froth()
         state = self._drawn()
         # Sprites: every particle, or with a surface only the spray.
         if self.metaballs is not None:
@@ -188,6 +201,36 @@ class FluidBody(Body):
             color=Field(rgba.T, "1", "linear RGBA"),
         )
         return [(drawn, self.sprite_style)]
+
+    def _froth(self) -> list:
+        """The water look's sprites: spray (thin places, left out of the surface) as
+        white droplets, and foam on the surface, white by its foam value."""
+        s = self._drawn()
+        if s.count == 0:
+            return []
+        look = self.look
+        spray = self._spray()
+        white = np.zeros(s.count, np.float32)
+        white[spray] = look["alpha"]
+        if look["foam"]:
+            h = self.fluid.model.derived["h"]
+            froth = foam(
+                s.positions, s.velocities, h, trapped_air=look["foam_trapped_air"],
+                wave_crest=look["foam_wave_crest"], kinetic=look["foam_kinetic"],
+            )  # fmt: skip
+            white = np.maximum(white, froth * look["foam_alpha"])
+        chosen = white > 0.02
+        if not chosen.any():
+            return []
+        state = s.take(chosen)
+        rgba = np.empty((state.count, 4), np.float32)
+        rgba[:, :3] = 1.0
+        rgba[:, 3] = white[chosen]
+        radius = np.where(spray[chosen], look["radius"], look["foam_radius"])
+        drawn = state.replace(
+            radius=radius.astype(np.float32), color=Field(rgba.T, "1", "linear RGBA")
+        )
+        return [(drawn, self.foam_style)]
 
     def _surfaces(self) -> list:
         """``(phase, mesh)`` of each phase's metaball surface (spray left out); made once
@@ -221,7 +264,29 @@ class FluidBody(Body):
         material = Material(specular=self.look["specular"], shininess=48.0)
         for phase, mesh in self._surfaces():
             items.append(geometry.Mesh(mesh, color=tuple(self.colors[phase]), material=material))
+        if self.look["mode"] == "water":
+            items.extend(self._waters())
         return items
+
+    def _waters(self) -> list:
+        """One :class:`Water` per phase (spray left out)."""
+        s = self._drawn()
+        if s.count == 0:
+            return []
+        look, spacing = self.look, self.fluid.model.spacing
+        body = ~self._spray()
+        out = []
+        for phase in range(len(self.colors)):
+            chosen = body & (s["phase"] == phase)
+            if chosen.any():
+                water = Water(
+                    s.positions[:, chosen].T, look["water_radius"], volume=spacing**3,
+                    color=tuple(self.colors[phase]), clarity=look["clarity"],
+                    scatter=look["scatter"], smoothing=look["smoothing"],
+                    refraction=look["refraction"], specular=look["specular"],
+                )  # fmt: skip
+                out.append(water)
+        return out
 
     def entry(self, *, surface: bool = False) -> Entry:
         """The particles and, with ``surface`` and a ``"surface"`` look, the surface the
@@ -492,10 +557,18 @@ class _WallList:
                 yield item
 
 
+def _thresholds(value, path):
+    """A ``[low, high]`` pair of foam thresholds, 0 <= low < high."""
+    pair = array_of(number(0.0), length=2)(value, path)
+    if not pair[0] < pair[1]:
+        raise SceneError(path, f"must be [low, high] with low < high, got {shown(value)}")
+    return tuple(pair)
+
+
 def _look(table: Table | None, spacing: float) -> dict:
     empty = Table({}, "render") if table is None else table
     look = {
-        "mode": empty.get("mode", one_of("particles", "surface"), "surface"),
+        "mode": empty.get("mode", one_of("particles", "surface", "water"), "surface"),
         "radius": empty.get("radius", positive(), 0.6 * spacing),
         "alpha": empty.get("alpha", number(0.0, 1.0), 0.8),
         "surface_radius": empty.get("surface_radius", positive(), 1.2 * spacing),
@@ -504,6 +577,17 @@ def _look(table: Table | None, spacing: float) -> dict:
         "spray": empty.get("spray", boolean, False),
         "spray_below": empty.get("spray_below", number(0.0, 1.0), 0.55),
         "specular": empty.get("specular", number(0.0), 0.6),
+        "water_radius": empty.get("water_radius", positive(), 1.0 * spacing),
+        "clarity": empty.get("clarity", positive(), 1.0),
+        "scatter": empty.get("scatter", number(0.0, 1.0), 0.1),
+        "smoothing": empty.get("smoothing", number(0.0), 3.0),
+        "refraction": empty.get("refraction", number(0.0), 0.25),
+        "foam": empty.get("foam", boolean, True),
+        "foam_alpha": empty.get("foam_alpha", number(0.0, 1.0), 0.8),
+        "foam_radius": empty.get("foam_radius", positive(), 1.0 * spacing),
+        "foam_trapped_air": empty.get("foam_trapped_air", _thresholds, (2.0, 8.0)),
+        "foam_wave_crest": empty.get("foam_wave_crest", _thresholds, (0.5, 2.0)),
+        "foam_kinetic": empty.get("foam_kinetic", _thresholds, (0.5, 4.0)),
     }
     empty.finish()
     return look
