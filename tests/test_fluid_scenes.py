@@ -29,7 +29,7 @@ def test_dam_break_surges_and_stays_in_its_tank():
     assert (p[0] >= s / 2 - 1e-6).all() and (p[0] <= 1.6 - s / 2 + 1e-6).all()
     assert (p[1] >= s / 2 - 1e-6).all() and (p[2] <= 0.3 - s / 2 + 1e-6).all()
     assert p[0].max() > 1.0  # the front left the column (0.4 m) behind
-    assert any(isinstance(d, geometry.Mesh) for d in body.drawables())
+    assert any(isinstance(d, Water) for d in body.drawables())
 
 
 def test_honey_piles_on_the_plate_and_sticks():

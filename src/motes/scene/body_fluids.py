@@ -129,6 +129,8 @@ class FluidBody(Body):
         self.foam_style = SpriteStyle(
             kind="sprite", blend="alpha", lit=True, softness=look["foam_radius"]
         )
+        # Spray: droplets lit by the lights and streaked over a sixtieth of a second.
+        self.spray_style = SpriteStyle(kind="sprite", blend="alpha", lit=True, shutter=1 / 60)
         self.metaballs = None
         if look["mode"] == "surface":
             self.metaballs = Metaballs.from_radius(
@@ -203,34 +205,41 @@ class FluidBody(Body):
         return [(drawn, self.sprite_style)]
 
     def _froth(self) -> list:
-        """The water look's sprites: spray (thin places, left out of the surface) as
-        white droplets, and foam on the surface, white by its foam value."""
+        """The water look's sprites: the spray (thin places, left out of the surface) as
+        droplets streaked by their motion, and foam on the surface, white by its value."""
         s = self._drawn()
         if s.count == 0:
             return []
         look = self.look
         spray = self._spray()
-        white = np.zeros(s.count, np.float32)
-        white[spray] = look["alpha"]
+        out = []
+        if spray.any():
+            drops = s.take(spray)
+            rgba = np.empty((drops.count, 4), np.float32)
+            rgba[:, :3] = self.colors[drops["phase"]] * 0.25 + 0.75  # nearly white
+            rgba[:, 3] = look["alpha"]
+            drops = drops.replace(
+                radius=np.full(drops.count, look["radius"], np.float32),
+                color=Field(rgba.T, "1", "linear RGBA"),
+            )
+            out.append((drops, self.spray_style))
         if look["foam"]:
             h = self.fluid.model.derived["h"]
             froth = foam(
                 s.positions, s.velocities, h, trapped_air=look["foam_trapped_air"],
                 wave_crest=look["foam_wave_crest"], kinetic=look["foam_kinetic"],
             )  # fmt: skip
-            white = np.maximum(white, froth * look["foam_alpha"])
-        chosen = white > 0.02
-        if not chosen.any():
-            return []
-        state = s.take(chosen)
-        rgba = np.empty((state.count, 4), np.float32)
-        rgba[:, :3] = 1.0
-        rgba[:, 3] = white[chosen]
-        radius = np.where(spray[chosen], look["radius"], look["foam_radius"])
-        drawn = state.replace(
-            radius=radius.astype(np.float32), color=Field(rgba.T, "1", "linear RGBA")
-        )
-        return [(drawn, self.foam_style)]
+            chosen = (froth * look["foam_alpha"] > 0.02) & ~spray
+            if chosen.any():
+                state = s.take(chosen)
+                rgba = np.ones((state.count, 4), np.float32)
+                rgba[:, 3] = froth[chosen] * look["foam_alpha"]
+                state = state.replace(
+                    radius=np.full(state.count, look["foam_radius"], np.float32),
+                    color=Field(rgba.T, "1", "linear RGBA"),
+                )
+                out.append((state, self.foam_style))
+        return out
 
     def _surfaces(self) -> list:
         """``(phase, mesh)`` of each phase's metaball surface (spray left out); made once
@@ -583,8 +592,8 @@ def _look(table: Table | None, spacing: float) -> dict:
         "smoothing": empty.get("smoothing", number(0.0), 3.0),
         "refraction": empty.get("refraction", number(0.0), 0.25),
         "foam": empty.get("foam", boolean, True),
-        "foam_alpha": empty.get("foam_alpha", number(0.0, 1.0), 0.8),
-        "foam_radius": empty.get("foam_radius", positive(), 1.0 * spacing),
+        "foam_alpha": empty.get("foam_alpha", number(0.0, 1.0), 0.5),
+        "foam_radius": empty.get("foam_radius", positive(), 0.7 * spacing),
         "foam_trapped_air": empty.get("foam_trapped_air", _thresholds, (2.0, 8.0)),
         "foam_wave_crest": empty.get("foam_wave_crest", _thresholds, (0.5, 2.0)),
         "foam_kinetic": empty.get("foam_kinetic", _thresholds, (0.5, 4.0)),
