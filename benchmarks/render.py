@@ -29,7 +29,12 @@ against a baseline measured in the same run:
   and under a directional light, rendered with its particles casting opacity shadows
   and the light casting shadow maps, against the same frame with both off:
   ``fire_shadow_cost_ratio`` (target <= 1.5), ``fire_shadows_ms``,
-  ``fire_no_shadows_ms``.
+  ``fire_no_shadows_ms``;
+- **water**: the built-in ``dam_break`` at 1280 × 720 after 0.67 s (the surge meeting
+  the far wall), its liquid drawn as clear water in screen space
+  (:class:`motes.render.water.Water`, with foam and spray), against the same frame with
+  the metaball surface it had before: ``water_frame_ms``, ``surface_frame_ms``,
+  ``water_over_surface``.
 
 Timings are the best of several calls after warm-up calls (the first call of a kernel
 loads or compiles it), with the median beside it. The cores other processes kept busy
@@ -355,6 +360,28 @@ def bench_fire_shadows(sizes: Sizes, quick: bool) -> dict:
     }
 
 
+def bench_water(sizes: Sizes, quick: bool) -> dict:
+    """The dam break's frame drawn with the water look and with the metaball surface."""
+    from motes.scene import load_scene
+    from motes.scene.scene import builtin_text
+
+    frames = 4 if quick else 20
+    size = (320, 180) if quick else (WIDTH, HEIGHT)
+    repeat = max(3, sizes.repeat // 2)
+    timings = {}
+    for mode in ("water", "surface"):
+        text = builtin_text("dam_break").replace('mode = "water"', f'mode = "{mode}"')
+        scene = load_scene(text)
+        for _ in range(frames):
+            scene.advance()
+        timings[mode] = time_calls(lambda s=scene: s.render(size), repeat=repeat)
+    return {
+        "water": timings["water"],
+        "surface": timings["surface"],
+        "ratio": timings["water"].best / timings["surface"].best,
+    }
+
+
 def _ms(timing: Timing) -> str:
     return f"{1e3 * timing.best:9.2f} ms (median {1e3 * timing.median:.2f})"
 
@@ -486,6 +513,21 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
     ]
     out()
     out(table(rows, title="6. Fire with and without shadows"))
+
+    w = bench_water(sizes, quick)
+    figures |= {
+        "water_frame_ms": 1e3 * w["water"].best,
+        "surface_frame_ms": 1e3 * w["surface"].best,
+        "water_over_surface": w["ratio"],
+    }
+    rows = [
+        ("frame", f"built-in dam_break, {WIDTH} x {HEIGHT}, after 0.67 s (4,608 particles)"),
+        ("water", _ms(w["water"]) + " (screen space: splat, smooth, shade; foam, spray)"),
+        ("metaball surface", _ms(w["surface"]) + " (marching cubes, mesh drawn)"),
+        ("ratio", f"{w['ratio']:9.2f}x"),
+    ]
+    out()
+    out(table(rows, title="7. Water against the metaball surface"))
     return figures
 
 

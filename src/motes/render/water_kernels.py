@@ -117,10 +117,10 @@ def smooth_rows(surface, thickness, sigma, inv_range2, out_surface, out_thicknes
     for row in prange(height):
         for col in range(width):
             s = sigma[row, col]
-            reach = int(2.0 * s) + 1
+            # Every pixel is a tap: sampling a wide filter sparsely (every sigma/8 px)
+            # was 1.7x faster but left a visible grain where the spheres' bumps are.
+            taps = int(2.0 * s) + 1
             inv = quarter / (s * s)
-            lo = max(col - reach, 0)
-            hi = min(col + reach + 1, width)
             z = surface[row, col]
             liquid = z < EMPTY
             z_sum = zero
@@ -130,7 +130,7 @@ def smooth_rows(surface, thickness, sigma, inv_range2, out_surface, out_thicknes
             # Weights (1 - x^2/4)^2 of x = distance / sigma: a Gaussian's shape within two
             # sigmas, and no exponential per tap; the same shape for the depth difference
             # over its cutoff.
-            for k in range(lo, hi):
+            for k in range(max(col - taps, 0), min(col + taps + 1, width)):
                 d = np.float32(k - col)
                 w = max(one - d * d * inv, zero)
                 w *= w
