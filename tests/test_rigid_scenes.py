@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from motes.render import geometry
 from motes.scene import SceneError, load_scene
 
 SIZE = (96, 54)
@@ -27,6 +28,16 @@ def test_ragdoll_stairs_never_enters_a_step_and_keeps_its_limits():
     doll = world.position
     assert np.isfinite(doll).all() and doll[:, 2].mean() > 0.6  # on its way down
     assert scene.render(SIZE).std() > 2
+    # drawn with volume: a capsule per limb and trunk part, each end on a joint (or
+    # midway between two: the hips' and shoulders' middles)
+    capsules = [d for d in body.drawables() if isinstance(d, geometry.Capsule)]
+    assert len(capsules) == 13
+    joints = world.position
+    middles = (joints[:, None] + joints[None, :]).reshape(-1, 3) / 2
+    for capsule in capsules:
+        for end in (capsule.a, capsule.b):
+            assert np.abs(middles - end).max(axis=1).min() < 1e-9
+        assert 0.03 < capsule.radius < 0.12
 
 
 def test_rope_bridge_catches_the_crates():

@@ -53,6 +53,9 @@ class RigidScene(Body):
     lines : (m, 2) int array
         Particle pairs drawn as lines (sticks, ropes, bones).
     spheres : list of (particle, radius [m], colour)
+    capsules : list of (end, end, radius [m], colour)
+        Capsules between two ends, each a particle or a tuple of particles (their mean):
+        bodies with volume (a ragdoll's limbs and torso).
     static : list
         Fixed drawables (stairs, walls, anchors).
     """
@@ -64,6 +67,7 @@ class RigidScene(Body):
         boxes=(),
         lines=None,
         spheres=(),
+        capsules=(),
         static=(),
         line_color=(0.9, 0.9, 0.85),
         line_width=3.0,
@@ -72,12 +76,20 @@ class RigidScene(Body):
         self.boxes = list(boxes)
         self.lines = np.zeros((0, 2), dtype=np.int64) if lines is None else np.asarray(lines)
         self.spheres = list(spheres)
+        self.capsules = []
+        self.add_capsules(capsules)
         self.static = list(static)
         self.line_color = line_color
         self.line_width = line_width
         self.hooks = []  # callables (body, time) run before each step
         self.trails: list[int] = []  # particles whose recent path is drawn
         self.history: list[np.ndarray] = []
+
+    def add_capsules(self, capsules) -> None:
+        """Draw capsules ``(end, end, radius [m], colour)``, each end a particle or a
+        tuple of particles (their mean)."""
+        for a, b, radius, tint in capsules:
+            self.capsules.append((np.atleast_1d(a), np.atleast_1d(b), radius, tint))
 
     def step(self, dt: float) -> None:
         for hook in self.hooks:
@@ -144,6 +156,9 @@ class RigidScene(Body):
             out.append(geometry.Lines.strips(list(paths), color=(1.0, 0.85, 0.4), width=2.0))
         for particle, radius, tint in self.spheres:
             out.append(geometry.Sphere(position[particle], radius, color=tint, subdivisions=2))
+        for a, b, radius, tint in self.capsules:
+            ends = position[a].mean(axis=0), position[b].mean(axis=0)
+            out.append(geometry.Capsule(*ends, radius, color=tint, subdivisions=2))
         return out
 
 
@@ -205,15 +220,48 @@ def ragdoll_stairs(table: Table, context: BuildContext) -> RigidScene:
     )
     world.set_velocity(doll.indices, table.get("throw", vector(), (0.0, 1.0, 2.5)))
     head = doll.particles["head"]
-    skin = (0.85, 0.6, 0.45)
     return RigidScene(
         world,
-        lines=doll.segments,
         static=static,
-        line_width=6.0,
-        spheres=[(head, float(world.radius[head]), skin)],
-        line_color=(0.2, 0.35, 0.8),
+        spheres=[(head, float(world.radius[head]), _SKIN)],
+        capsules=ragdoll_body(doll.particles, table.get("height", positive(), 1.75)),
     )
+
+
+_SKIN, _SHIRT, _TROUSERS = (0.85, 0.6, 0.45), (0.2, 0.35, 0.75), (0.18, 0.18, 0.22)
+
+#: A ragdoll's body: (end, end, radius as a share of its height, colour); an end is a
+#: joint or joints whose mean it is. The radii stay near the particles' contact radius
+#: (0.025 of the height), so that the drawn body does not sink into what it lands on.
+_RAGDOLL_BODY = (
+    ("neck", "head", 0.022, _SKIN),
+    (("shoulder_l", "shoulder_r"), "chest", 0.06, _SHIRT),  # chest
+    ("shoulder_l", "shoulder_r", 0.035, _SHIRT),
+    ("chest", ("hip_l", "hip_r"), 0.05, _SHIRT),  # belly
+    ("hip_l", "hip_r", 0.045, _TROUSERS),
+    ("shoulder_l", "elbow_l", 0.026, _SHIRT),
+    ("shoulder_r", "elbow_r", 0.026, _SHIRT),
+    ("elbow_l", "wrist_l", 0.022, _SKIN),
+    ("elbow_r", "wrist_r", 0.022, _SKIN),
+    ("hip_l", "knee_l", 0.034, _TROUSERS),
+    ("hip_r", "knee_r", 0.034, _TROUSERS),
+    ("knee_l", "ankle_l", 0.028, _TROUSERS),
+    ("knee_r", "ankle_r", 0.028, _TROUSERS),
+)
+
+
+def ragdoll_body(particles: dict, height: float, shirt=_SHIRT) -> list:
+    """Capsules for a ragdoll's limbs and trunk (joint particles by name), sized by its
+    height [m], the shirt in ``shirt`` (linear RGB)."""
+
+    def joints(end):
+        names = (end,) if isinstance(end, str) else end
+        return tuple(particles[n] for n in names)
+
+    return [
+        (joints(a), joints(b), share * height, shirt if tint is _SHIRT else tint)
+        for a, b, share, tint in _RAGDOLL_BODY
+    ]
 
 
 @register("rope_bridge")

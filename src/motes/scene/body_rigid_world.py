@@ -21,7 +21,7 @@ import numpy as np
 from .. import rigid
 from ..render import geometry
 from .bodies import BuildContext, register
-from .body_rigid import RigidScene, read_world
+from .body_rigid import RigidScene, ragdoll_body, read_world
 from .parts import euler_rotation
 from .schema import (
     SceneError,
@@ -180,19 +180,20 @@ def _rope(table: Table, world, scene: RigidAssembly, k: int, group) -> _Part:
 def _ragdoll(table: Table, world, scene: RigidAssembly, k: int, group) -> _Part:
     yaw = table.get("yaw", number(), 0.0)
     rotation = euler_rotation([0.0, yaw, 0.0], table.key_path("yaw"))  # turns about y
+    height = table.get("height", positive(), 1.8)
     doll = build(
         table.path,
         rigid.add_ragdoll,
         world,
         table.get("position", vector()),
-        height=table.get("height", positive(), 1.8),
+        height=height,
         mass=table.get("mass", positive(), 75.0),
         rotation=rotation,
         compliance=_compliance(table),
         hinge_sides=table.get("hinge_sides", boolean, False),
     )
     _launch(table, world, doll.indices)
-    scene.line_groups.append((doll.segments, _tint(table, (0.2, 0.35, 0.8)), 6.0))
+    scene.add_capsules(ragdoll_body(doll.particles, height, _tint(table, (0.2, 0.35, 0.75))))
     head = doll.particles["head"]
     scene.spheres.append((head, float(world.radius[head]), (0.85, 0.6, 0.45)))
     return _Part("ragdoll", doll.indices, joints=dict(doll.particles))
