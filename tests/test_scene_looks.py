@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from motes.render import geometry
+from motes.render.water import Water
 from motes.scene import SceneError, load_scene
 from motes.scene.camera_path import CameraPath
 
@@ -57,6 +58,29 @@ def test_surface_keys_are_checked_and_sprite_keys_refused():
         with pytest.raises(SceneError, match=message) as error:
             load_scene(BLOB.replace(*change))
         assert error.value.path == path
+
+
+WATER = BLOB.replace(
+    'kind = "surface"\n  radius = 0.15\n  cell_size = 0.05',
+    'kind = "water"\n  radius = 0.1\n  clarity = 0.2',
+)
+
+
+def test_an_emitter_system_drawn_as_clear_water_tinted_by_its_particles():
+    scene = load_scene(WATER.replace('color = "#ff8000"', "color = [1.0, 0.5, 0.1]"))
+    scene.advance()
+    image = scene.render()
+    renderer = scene._renderers[(64, 36)]
+    assert "blob" in renderer.surfaces and "blob" not in renderer.styles
+    (water,) = renderer.surfaces["blob"].drawables(scene.systems["blob"])
+    assert isinstance(water, Water) and water.radius == 0.1 and water.clarity == 0.2
+    np.testing.assert_allclose(water.color, (1.0, 0.5, 0.1), rtol=1e-6)
+    # over the black background the ball shows the light it scatters, in its tint
+    centre = image[12:24, 26:38].astype(int)
+    assert centre[..., 0].mean() > centre[..., 2].mean() + 10
+    with pytest.raises(SceneError, match=r"each channel in \(0, 1\]") as error:
+        load_scene(WATER.replace("clarity = 0.2", "color = [0.0, 0.5, 0.5]"))
+    assert error.value.path == "system[0].render.color"
 
 
 def test_a_camera_path_passes_its_keys_smoothly_and_holds_outside_them():

@@ -34,7 +34,7 @@ def clear_water(positions, radius, **look) -> mo.Water:
 def test_a_sphere_gives_its_chords_and_its_front():
     radius = 0.2
     water = clear_water([[0.0, 0.0, 0.0]], radius, iterations=0)
-    surface, thickness, drawn = water.passes(Frame(SIZE, SIZE), top_down())
+    surface, thickness, _, drawn = water.passes(Frame(SIZE, SIZE), top_down())
     assert drawn == 1
     ppm = SIZE / EXTENT
     centre = (np.arange(SIZE) + 0.5 - SIZE / 2) / ppm  # pixel centres [m]
@@ -53,7 +53,7 @@ def test_opaque_geometry_cuts_the_chords():
     radius = 0.2
     frame = Frame(SIZE, SIZE)
     frame.depth[:] = 5.0
-    surface, thickness, _ = clear_water([[0.0, 0.0, 0.0]], radius, iterations=0).passes(
+    surface, thickness, _, _ = clear_water([[0.0, 0.0, 0.0]], radius, iterations=0).passes(
         frame, top_down()
     )
     middle = SIZE // 2
@@ -62,7 +62,7 @@ def test_opaque_geometry_cuts_the_chords():
     assert thickness[middle, middle] == pytest.approx(half, rel=1e-4)
     assert surface[middle, middle] == pytest.approx(5 - half, rel=1e-5)
     frame.depth[:] = 5.0 - 1.5 * radius  # a wall in front of the whole sphere
-    surface, thickness, _ = clear_water([[0.0, 0.0, 0.0]], radius).passes(frame, top_down())
+    surface, thickness, _, _ = clear_water([[0.0, 0.0, 0.0]], radius).passes(frame, top_down())
     assert (thickness == 0).all() and (surface == EMPTY).all()
 
 
@@ -83,7 +83,7 @@ def test_a_slab_transmits_exp_minus_sigma_times_its_depth():
                         clarity=clarity)  # fmt: skip
     frame = Frame(SIZE, SIZE)
     frame.color[:] = 1.0
-    _, thickness, _ = water.passes(frame, top_down())
+    thickness = water.passes(frame, top_down()).thickness
     middle = (slice(SIZE // 2 - 8, SIZE // 2 + 8),) * 2
     # The lattice's volume: its spheres' chords, scaled to s^3 a particle, sum to L.
     assert thickness[middle].mean() == pytest.approx(depth, rel=0.03)
@@ -92,6 +92,28 @@ def test_a_slab_transmits_exp_minus_sigma_times_its_depth():
     np.testing.assert_allclose(frame.color[middle].mean(axis=(0, 1)), expected, rtol=0.03)
     # and the flat face, smoothed, faces the camera: the pixel's own background
     assert water.absorption == pytest.approx(-np.log(color) / clarity)
+
+
+def test_a_wide_smoothing_at_half_size_keeps_the_slab_flat_and_its_depth():
+    """A smoothing sigma of 8 px (2.5 radii of 3.2 px): the smoothing runs at half size
+    and is brought back; the slab's face stays flat (its normal faces the camera: the
+    background shows unshifted) and its thickness and transmittance keep to 3 %."""
+    spacing, depth = 0.02, 0.3
+    camera = top_down(160)  # 160 px per metre: a particle's radius is 3.2 px
+    water = clear_water(slab(depth, spacing, width=0.9), spacing, volume=spacing**3,
+                        smoothing=2.5, refraction=0.5, color=(0.5, 0.7, 0.9),
+                        clarity=0.25)  # fmt: skip
+    frame = Frame(160, 160)
+    frame.color[:] = ((np.arange(160) // 3) % 2)[None, :, None]  # stripes 3 px wide
+    before = frame.color.copy()
+    surface, thickness, _, _ = water.passes(frame, camera)
+    middle = (slice(40, 120),) * 2
+    assert thickness[middle].mean() == pytest.approx(depth, rel=0.03)
+    flat = surface[middle]
+    assert flat.max() - flat.min() < 0.1 * spacing
+    water.draw(frame, camera, background=mo.Background("#000000"))
+    shown = frame.color[middle] / np.exp(-water.absorption * depth)
+    np.testing.assert_allclose(shown, before[middle], atol=0.05)
 
 
 def test_fresnel_reflects_two_percent_face_on_and_most_at_a_grazing_angle():
@@ -134,8 +156,9 @@ def test_refraction_bends_what_lies_behind_a_curved_surface_only():
     assert changed.any()
     rows, cols = np.nonzero(changed)
     middle = SIZE // 2
-    # only within the drop (0.4 m wide: 26 px around the middle), and not at its centre
-    assert np.abs(rows - middle).max() <= 14 and np.abs(cols - middle).max() <= 14
+    # only within the drop (0.44 m wide with its spheres: 14 px from the middle) and the
+    # smoothing's reach past its outline (2 sigma: 8 px), and not at its centre
+    assert np.abs(rows - middle).max() <= 22 and np.abs(cols - middle).max() <= 22
     assert not changed[middle - 2 : middle + 2, middle - 2 : middle + 2].any()
 
 

@@ -29,6 +29,7 @@ shows as one thicker body), and the liquid casts no shadows.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -52,6 +53,8 @@ from .water_kernels import (
     SIGMA_R,
     SPECULAR,
     ZENITH_R,
+    double,
+    halve,
     shade,
     smooth_rows,
     splat_spheres,
@@ -59,6 +62,23 @@ from .water_kernels import (
 
 #: Widest smoothing [px] (sigma): bounds the cost when particles come close to the camera.
 MAX_SIGMA_PX = 16.0
+#: From this typical sigma [px] on, the smoothing runs at half size (8x less work; a
+#: filter this wide leaves nothing the half-size grid cannot hold).
+HALF_SIZE_SIGMA_PX = 6.0
+
+
+class Passes(NamedTuple):
+    """The screen-space buffers of a liquid, each (height, width) float32."""
+
+    surface: np.ndarray  #: smoothed depth of the front [m]; EMPTY without liquid
+    thickness: np.ndarray  #: smoothed depth of liquid crossed [m]
+    coverage: np.ndarray  #: smoothed share of the spheres' outline: shown above 1/2
+    drawn: int  #: particles in view
+
+
+def _transposed(a: np.ndarray) -> np.ndarray:
+    """Rows and columns swapped (a trailing channel axis kept), contiguous."""
+    return np.ascontiguousarray(a.swapaxes(0, 1))
 
 
 class Water:
@@ -161,21 +181,19 @@ class Water:
         buffers = self.passes(frame, camera)
         if buffers is None:
             return 0
-        surface, thickness, drawn = buffers
         packed, ambient = pack_lights(default_lights() if lights is None else lights)
         behind = frame.color.copy()
         opaque = np.minimum(frame.depth, EMPTY)
+        plain = np.ascontiguousarray(np.stack([buffers.thickness, buffers.coverage], axis=-1))
         shade(
-            camera.packed(), behind, opaque, surface, thickness, packed, ambient,
+            camera.packed(), behind, opaque, buffers.surface, plain, packed, ambient,
             self._params(background or Background()), frame.color, frame.depth,
         )  # fmt: skip
-        return drawn
+        return buffers.drawn
 
-    def passes(self, frame: Frame, camera: Camera):
-        """The smoothed surface depth [m] and thickness [m] buffers (height, width)
-        float32 over ``frame``'s opaque depth, and the number of particles drawn; None
-        when no particle is in view. Pixels without liquid hold
-        :data:`~motes.render.water_kernels.EMPTY` as depth."""
+    def passes(self, frame: Frame, camera: Camera) -> Passes | None:
+        """The smoothed buffers over ``frame``'s opaque depth (:class:`Passes`); None
+        when no particle is in view."""
         width, height = camera.resolution
         if (frame.width, frame.height) != (width, height):
             raise ValueError(
@@ -211,46 +229,63 @@ class Water:
         splat_spheres(bins.starts, bins.items, bins.tiles_x, sx, sy, z, rpx, size, opaque,
                       surface, thickness)  # fmt: skip
         thickness *= np.float32(self.volume / (4.0 / 3.0 * math.pi * self.radius**3))
+        plain = np.stack([thickness, (surface < EMPTY).astype(np.float32)], axis=-1)
         if self.iterations and self.smoothing > 0:
-            surface, thickness = self._smooth(camera, surface, thickness)
-        return surface, thickness, int(seen.sum())
+            surface, plain = self._smooth(camera, surface, plain)
+        return Passes(surface, plain[..., 0], plain[..., 1], int(seen.sum()))
 
-    def _smooth(self, camera: Camera, surface, thickness):
+    def _smooth(self, camera: Camera, surface, plain):
         """Separable bilateral smoothing, :attr:`iterations` times (rows, then columns),
-        over the liquid's bounding box grown by the widest filter."""
+        over the liquid's bounding box grown by the widest filter; at half size when the
+        filter is wide (:data:`HALF_SIZE_SIGMA_PX`), brought back by
+        :func:`~motes.render.water_kernels.double`."""
         liquid = surface < EMPTY
         if not liquid.any():  # every particle hidden behind opaque geometry
-            return surface, thickness
+            return surface, plain
         rows = np.flatnonzero(liquid.any(axis=1))
         cols = np.flatnonzero(liquid.any(axis=0))
         margin = int(2 * MAX_SIGMA_PX) + 2
         top, bottom = max(rows[0] - margin, 0), min(rows[-1] + margin + 1, surface.shape[0])
         left, right = max(cols[0] - margin, 0), min(cols[-1] + margin + 1, surface.shape[1])
         box = (slice(top, bottom), slice(left, right))
-        s, t, inside = surface[box], thickness[box], liquid[box]
-        sigma = np.empty(s.shape, np.float32)
+        raw = np.ascontiguousarray(surface[box])
+        s, t = raw, np.ascontiguousarray(plain[box])
         reach = self.smoothing * self.radius
-        sigma[inside] = reach * camera.pixels_per_metre(s[inside])
-        sigma[~inside] = float(np.median(sigma[inside]))
-        np.clip(sigma, 0.5, MAX_SIGMA_PX, out=sigma)
         # Depths more than four spatial reaches apart are not averaged: a face seen at a
         # grazing angle (whose depth changes fast across the screen) is still smoothed,
         # while a sheet further behind keeps its own depth.
         inv_range2 = np.float32(1.0 / (4.0 * max(reach, self.radius)) ** 2)
-        s, t = np.ascontiguousarray(s), np.ascontiguousarray(t)
+        inside = raw < EMPTY
+        typical = float(np.median(reach * camera.pixels_per_metre(raw[inside])))
+        scale = 2 if typical >= HALF_SIZE_SIGMA_PX else 1
+        if scale == 2:
+            size = tuple((n + 1) // 2 for n in s.shape)
+            s_half, t_half = np.empty(size, np.float32), np.empty((*size, 2), np.float32)
+            halve(s, t, s_half, t_half)
+            s, t = s_half, t_half
+        inside = s < EMPTY
+        sigma = np.empty(s.shape, np.float32)
+        sigma[inside] = reach * camera.pixels_per_metre(s[inside]) / scale
+        sigma[~inside] = float(np.median(sigma[inside]))
+        np.clip(sigma, 0.5, MAX_SIGMA_PX / scale, out=sigma)
         sigma_t = np.ascontiguousarray(sigma.T)
+        # thickness and coverage: smoothed over about a radius (their sigma's share)
+        share = np.float32(min(1.0, 1.0 / self.smoothing))
         for _ in range(self.iterations):
-            s, t = self._pass(s, t, sigma, inv_range2)
-            s, t = self._pass(np.ascontiguousarray(s.T), np.ascontiguousarray(t.T), sigma_t,
-                              inv_range2)  # fmt: skip
-            s, t = np.ascontiguousarray(s.T), np.ascontiguousarray(t.T)
-        surface[box], thickness[box] = s, t
-        return surface, thickness
+            s, t = self._pass(s, t, sigma, share, inv_range2)
+            s, t = self._pass(_transposed(s), _transposed(t), sigma_t, share, inv_range2)
+            s, t = _transposed(s), _transposed(t)
+        if scale == 2:
+            full_s, full_t = np.empty_like(raw), np.empty((*raw.shape, 2), np.float32)
+            double(raw, s, t, inv_range2, full_s, full_t)
+            s, t = full_s, full_t
+        surface[box], plain[box] = s, t
+        return surface, plain
 
     @staticmethod
-    def _pass(surface, thickness, sigma, inv_range2):
-        out_s, out_t = np.empty_like(surface), np.empty_like(thickness)
-        smooth_rows(surface, thickness, sigma, inv_range2, out_s, out_t)
+    def _pass(surface, plain, sigma, share, inv_range2):
+        out_s, out_t = np.empty_like(surface), np.empty_like(plain)
+        smooth_rows(surface, plain, sigma, share, inv_range2, out_s, out_t)
         return out_s, out_t
 
     def _params(self, background: Background) -> np.ndarray:

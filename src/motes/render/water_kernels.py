@@ -100,15 +100,20 @@ def splat_spheres(starts, items, tiles_x, sx, sy, depth, rpx, radius, opaque, su
 
 
 @parallel_kernel
-def smooth_rows(surface, thickness, sigma, inv_range2, out_surface, out_thickness):
+def smooth_rows(surface, plain, sigma, plain_share, inv_range2, out_surface, out_plain):
     """One pass of the smoothing along rows (the caller transposes for columns).
 
     A liquid pixel's depth becomes the bilateral Gaussian mean of the liquid depths on
     its row within ``2 sigma`` (the spatial sigma ``sigma[row, col]`` [px]; the range
     weight, zero past a depth difference of ``1 / sqrt(inv_range2)`` [m], keeps a near
-    sheet from bleeding into a far one); a pixel without liquid keeps :data:`EMPTY`.
-    Every pixel's thickness becomes the plain Gaussian mean with its own sigma, so the
-    thickness spreads past the silhouette and fades it.
+    sheet from bleeding into a far one); a pixel without liquid takes the plain Gaussian
+    mean of the liquid depths within reach (the liquid grows by ``2 sigma`` a pass; the
+    coverage below decides what is shown), :data:`EMPTY` with none in reach.
+    ``plain`` (height, width, 2) holds the thickness [m] and the coverage (1 where the
+    spheres cover a pixel, 0 elsewhere): each becomes the plain Gaussian mean with
+    ``plain_share`` of the pixel's sigma (about a particle's radius: the outline loses
+    the discs' scallops, not the liquid's shape). The coverage, smoothed so, crosses 1/2
+    on a smooth outline that neither grows nor shrinks the liquid.
     """
     height, width = surface.shape
     one = np.float32(1.0)
@@ -117,6 +122,8 @@ def smooth_rows(surface, thickness, sigma, inv_range2, out_surface, out_thicknes
     for row in prange(height):
         for col in range(width):
             s = sigma[row, col]
+            sp = s * plain_share
+            inv_plain = quarter / (sp * sp)
             # Every pixel is a tap: sampling a wide filter sparsely (every sigma/8 px)
             # was 1.7x faster but left a visible grain where the spheres' bumps are.
             taps = int(2.0 * s) + 1
@@ -126,25 +133,101 @@ def smooth_rows(surface, thickness, sigma, inv_range2, out_surface, out_thicknes
             z_sum = zero
             z_weight = zero
             t_sum = zero
+            c_sum = zero
             t_weight = zero
             # Weights (1 - x^2/4)^2 of x = distance / sigma: a Gaussian's shape within two
             # sigmas, and no exponential per tap; the same shape for the depth difference
             # over its cutoff.
+            # A pixel without liquid has no depth to compare: its neighbours' weigh by
+            # distance alone, so the liquid's depth reaches past the spheres' outline
+            # wherever the smoothed coverage may show it.
+            near = one if liquid else zero
             for k in range(max(col - taps, 0), min(col + taps + 1, width)):
                 d = np.float32(k - col)
                 w = max(one - d * d * inv, zero)
                 w *= w
-                t_sum += w * thickness[row, k]
-                t_weight += w
+                wp = max(one - d * d * inv_plain, zero)
+                wp *= wp
+                t_sum += wp * plain[row, k, 0]
+                c_sum += wp * plain[row, k, 1]
+                t_weight += wp
                 q = surface[row, k]
-                dz = q - z
+                dz = (q - z) * near
                 wr = max(one - dz * dz * inv_range2, zero)
                 wr = w * wr * wr * ((q < EMPTY) * one)
                 z_sum += wr * q
                 z_weight += wr
-            out_thickness[row, col] = t_sum / t_weight
-            # (a liquid pixel's own tap weighs exp(0) = 1: no division by zero)
-            out_surface[row, col] = z_sum / z_weight if liquid else EMPTY
+            out_plain[row, col, 0] = t_sum / t_weight
+            out_plain[row, col, 1] = c_sum / t_weight
+            # (a liquid pixel's own tap weighs 1: no division by zero)
+            out_surface[row, col] = z_sum / z_weight if z_weight > zero else EMPTY
+
+
+@parallel_kernel
+def halve(surface, plain, out_surface, out_plain):
+    """2 x 2 blocks to one pixel: the nearest liquid depth (:data:`EMPTY` for none) and
+    the mean thickness and coverage. Odd edges take the pixels there are."""
+    height, width = surface.shape
+    for row in prange(out_surface.shape[0]):
+        for col in range(out_surface.shape[1]):
+            nearest = EMPTY
+            total = np.float32(0.0)
+            covered = np.float32(0.0)
+            count = 0
+            for r in range(2 * row, min(2 * row + 2, height)):
+                for c in range(2 * col, min(2 * col + 2, width)):
+                    nearest = min(nearest, surface[r, c])
+                    total += plain[r, c, 0]
+                    covered += plain[r, c, 1]
+                    count += 1
+            out_surface[row, col] = nearest
+            out_plain[row, col, 0] = total / np.float32(count)
+            out_plain[row, col, 1] = covered / np.float32(count)
+
+
+@parallel_kernel
+def double(surface, half_surface, half_plain, inv_range2, out_surface, out_plain):
+    """Half-size smoothed buffers back to full size, bilinear: thickness and coverage
+    everywhere;
+    the depth of each liquid pixel of ``surface`` (the full-size depth before smoothing)
+    from the half-size liquid samples near its own depth (the same range weight as the
+    smoothing), its own depth where there are none; a pixel without liquid from the
+    liquid samples around it (the grown outline), :data:`EMPTY` with none."""
+    height, width = surface.shape
+    half_h, half_w = half_surface.shape
+    one = np.float32(1.0)
+    zero = np.float32(0.0)
+    for row in prange(height):
+        v = min(max((row + 0.5) * 0.5 - 0.5, 0.0), half_h - 1.0)
+        r0 = min(int(v), max(half_h - 2, 0))
+        r1 = min(r0 + 1, half_h - 1)
+        fv = np.float32(v - r0)
+        for col in range(width):
+            u = min(max((col + 0.5) * 0.5 - 0.5, 0.0), half_w - 1.0)
+            c0 = min(int(u), max(half_w - 2, 0))
+            c1 = min(c0 + 1, half_w - 1)
+            fu = np.float32(u - c0)
+            for k in range(2):
+                top = half_plain[r0, c0, k] * (one - fu) + half_plain[r0, c1, k] * fu
+                bottom = half_plain[r1, c0, k] * (one - fu) + half_plain[r1, c1, k] * fu
+                out_plain[row, col, k] = top * (one - fv) + bottom * fv
+            z = surface[row, col]
+            liquid = z < EMPTY
+            near = one if liquid else zero
+            z_sum = zero
+            z_weight = zero
+            for r, wr in ((r0, one - fv), (r1, fv)):
+                for c, wc in ((c0, one - fu), (c1, fu)):
+                    q = half_surface[r, c]
+                    dz = (q - z) * near
+                    w = max(one - dz * dz * inv_range2, zero)
+                    w = wr * wc * w * w * ((q < EMPTY) * one)
+                    z_sum += w * q
+                    z_weight += w
+            if z_weight > 1e-6:
+                out_surface[row, col] = z_sum / z_weight
+            else:
+                out_surface[row, col] = z
 
 
 @device
@@ -206,11 +289,12 @@ def _bilinear(image, r0, r1, c0, c1, fu, fv, k):
 
 
 @parallel_kernel
-def shade(cam, behind, opaque, surface, thickness, lights, ambient, params, color, depth):
+def shade(cam, behind, opaque, surface, plain, lights, ambient, params, color, depth):
     """Draw the liquid into ``color`` (h, w, 3) float32 and its depth into ``depth``.
 
     ``behind`` is the frame before the liquid (what refraction shows), ``opaque`` its
-    depth (:data:`EMPTY` for none), ``surface`` and ``thickness`` the smoothed passes,
+    depth (:data:`EMPTY` for none), ``surface`` and ``plain`` (thickness, coverage) the
+    smoothed passes,
     ``lights`` and ``ambient`` as :func:`motes.render.shading.pack_lights` packs them,
     ``params`` the look (see the layout above). A pixel whose liquid is thinner than
     ``params[EDGE]`` is blended over what lies behind by its thickness, which softens
@@ -229,7 +313,12 @@ def shade(cam, behind, opaque, surface, thickness, lights, ambient, params, colo
             z = surface[row, col]
             if z >= EMPTY:
                 continue
-            t = max(thickness[row, col], 0.0)
+            t = max(plain[row, col, 0], 0.0)
+            # The outline where the smoothed coverage crosses 1/2, anti-aliased over a
+            # quarter of its ramp; and a film thinner than EDGE shows partly.
+            outline = min(max(4.0 * (plain[row, col, 1] - 0.5) + 0.5, 0.0), 1.0)
+            if outline <= 0.0:
+                continue
             x, y, _ = _view_point(cam, row, col, z)
             ax, ay, az = _tangent(cam, surface, row, col, 0, 1, x, y, z)
             bx, by, bz = _tangent(cam, surface, row, col, 1, 0, x, y, z)
@@ -319,13 +408,16 @@ def shade(cam, behind, opaque, surface, thickness, lights, ambient, params, colo
             tr = math.exp(-params[SIGMA_R] * t)
             tg = math.exp(-params[SIGMA_G] * t)
             tb = math.exp(-params[SIGMA_B] * t)
-            inside_r = back_r * tr + params[DEEP_R] * body_r * (1.0 - tr)
-            inside_g = back_g * tg + params[DEEP_G] * body_g * (1.0 - tg)
-            inside_b = back_b * tb + params[DEEP_B] * body_b * (1.0 - tb)
+            # Light scattered back by the body grows with the light it takes out of the
+            # view (the mean over the channels), in the liquid's own tint.
+            taken = 1.0 - (tr + tg + tb) / 3.0
+            inside_r = back_r * tr + params[DEEP_R] * body_r * taken
+            inside_g = back_g * tg + params[DEEP_G] * body_g * taken
+            inside_b = back_b * tb + params[DEEP_B] * body_b * taken
             out_r = (1.0 - fresnel) * inside_r + fresnel * sky_r + spec_r
             out_g = (1.0 - fresnel) * inside_g + fresnel * sky_g + spec_g
             out_b = (1.0 - fresnel) * inside_b + fresnel * sky_b + spec_b
-            cover = min(t / params[EDGE], 1.0)
+            cover = outline * min(t / params[EDGE], 1.0)
             base_r, base_g, base_b = behind[row, col, 0], behind[row, col, 1], behind[row, col, 2]
             color[row, col, 0] = base_r + cover * (out_r - base_r)
             color[row, col, 1] = base_g + cover * (out_g - base_g)

@@ -132,7 +132,8 @@ class FluidBody(Body):
         # Spray: droplets lit by the lights and streaked over a sixtieth of a second.
         self.spray_style = SpriteStyle(kind="sprite", blend="alpha", lit=True, shutter=1 / 60)
         self.metaballs = None
-        if look["mode"] == "surface":
+        # The water look draws in screen space, but exports the same metaball surface.
+        if look["mode"] in ("surface", "water"):
             self.metaballs = Metaballs.from_radius(
                 look["surface_radius"], sharpness=look["sharpness"], cell_size=look["cell_size"]
             )
@@ -270,11 +271,11 @@ class FluidBody(Body):
         items = list(self.walls)
         if self.floating is not None:
             items.extend(self.floating.boxes(self._shown_boxes))
+        if self.look["mode"] == "water":
+            return items + self._waters()
         material = Material(specular=self.look["specular"], shininess=48.0)
         for phase, mesh in self._surfaces():
             items.append(geometry.Mesh(mesh, color=tuple(self.colors[phase]), material=material))
-        if self.look["mode"] == "water":
-            items.extend(self._waters())
         return items
 
     def _waters(self) -> list:
@@ -298,8 +299,9 @@ class FluidBody(Body):
         return out
 
     def entry(self, *, surface: bool = False) -> Entry:
-        """The particles and, with ``surface`` and a ``"surface"`` look, the surface the
-        scene draws: every phase's mesh in one (the spray left out)."""
+        """The particles and, with ``surface`` and a ``"surface"`` or ``"water"`` look, the
+        metaball surface (the one the surface look draws): every phase's mesh in one (the
+        spray left out)."""
         state = self.fluid.particle_state()
         # floating boxes go with the liquid as its bodies' transforms
         boxes = None if self.floating is None else self.floating.world.transforms()

@@ -12,8 +12,9 @@ from ..render.metaballs import GridError, Metaballs
 from ..render.renderer import Renderer, background_from
 from ..render.shading import AmbientLight, DirectionalLight, Material, default_lights
 from ..render.sprites import SpriteStyle
+from ..render.water import Water
 from ..state import as_state
-from .looks import ParticleLook, SceneObject, SpheresLook, SurfaceLook
+from .looks import ParticleLook, SceneObject, SpheresLook, SurfaceLook, WaterLook
 from .schema import SceneError, key_name
 
 
@@ -38,13 +39,16 @@ class SceneRenderer:
         self.styles = {
             name: _style(look, f"system.{name}.render")
             for name, look in shown.items()
-            if look.surface is None and look.spheres is None
+            if look.surface is None and look.spheres is None and look.water is None
         }
         self.surfaces = {
             name: _Surface(look.surface) for name, look in shown.items() if look.surface
         }
         self.surfaces.update(
             {name: _Spheres(look.spheres) for name, look in shown.items() if look.spheres}
+        )
+        self.surfaces.update(
+            {name: _Water(look.water) for name, look in shown.items() if look.water}
         )
 
     @property
@@ -167,6 +171,34 @@ class _Spheres:
                 subdivisions=self.look.subdivisions, material=self.material,
             )
         ]  # fmt: skip
+
+
+class _Water:
+    """A system's particles as clear water in screen space (a waterfall's sheet)."""
+
+    def __init__(self, look: WaterLook):
+        self.look = look
+
+    def drawables(self, particles) -> list:
+        """The :class:`~motes.render.water.Water` over ``particles``."""
+        state = as_state(particles)
+        if state.count == 0:
+            return []
+        look = self.look
+        rgb = look.color
+        if rgb is None:
+            rgb = state["color"].T[:, :3].mean(axis=0) if "color" in state else _WATER
+        rgb = np.clip(np.asarray(rgb, np.float64), 1e-3, 1.0)
+        return [
+            Water(
+                state.positions.T, look.radius, color=tuple(rgb), clarity=look.clarity,
+                scatter=look.scatter, smoothing=look.smoothing, refraction=look.refraction,
+                specular=look.specular,
+            )
+        ]  # fmt: skip
+
+
+_WATER = (0.3, 0.62, 0.8)
 
 
 def _lights(lights, ambient=None):

@@ -32,10 +32,24 @@ class SpheresLook:
 
 
 @dataclass
+class WaterLook:
+    """A system drawn as clear water in screen space (``kind = "water"``):
+    :class:`~motes.render.water.Water` over its particles."""
+
+    radius: float = 0.05  # [m] of each particle's sphere
+    clarity: float = 1.0  # [m]: depth at which white light has taken the colour
+    scatter: float = 0.1
+    smoothing: float = 3.0  # in radii
+    refraction: float = 0.25
+    specular: float = 1.0
+    color: tuple | None = None  # the tint; None: the particles' mean colour
+
+
+@dataclass
 class ParticleLook:
     """How one system's particles are drawn (the ``[system.render]`` table)."""
 
-    kind: str = "sprite"  # "sprite", "point", "surface" or "spheres"
+    kind: str = "sprite"  # "sprite", "point", "surface", "spheres" or "water"
     blend: str = "additive"  # "additive" or "alpha"
     softness: float = 0.0  # [m]; 0 = hard depth test
     shutter: float = 0.0  # [s]; > 0 draws motion-blur streaks
@@ -47,6 +61,7 @@ class ParticleLook:
     light: float = 0.0  # lights the scene: render.emitted_light (0: no)
     surface: SurfaceLook | None = None  # kind "surface"
     spheres: SpheresLook | None = None  # kind "spheres"
+    water: WaterLook | None = None  # kind "water"
 
 
 @dataclass

@@ -28,7 +28,14 @@ from ..system import ParticleSystem
 from . import parts
 from .bodies import Body, BuildContext, build_body
 from .camera_path import CameraPath
-from .looks import ParticleLook, RenderSettings, SceneObject, SpheresLook, SurfaceLook
+from .looks import (
+    ParticleLook,
+    RenderSettings,
+    SceneObject,
+    SpheresLook,
+    SurfaceLook,
+    WaterLook,
+)
 from .overrides import apply_overrides
 from .schema import (
     SceneError,
@@ -458,11 +465,34 @@ def _light(table: Table):
     return light
 
 
+def _tint(value, path):
+    """A water colour: every channel in (0, 1] (what white light becomes)."""
+    rgba = color(value, path)
+    if not all(0.0 < c <= 1.0 for c in rgba[:3]):
+        raise SceneError(path, f"must have each channel in (0, 1], got {shown(value)}")
+    return rgba[:3]
+
+
 def _look(table: Table | None, base: Path) -> ParticleLook:
     look = ParticleLook()
     if table is None:
         return look
-    look.kind = table.get("kind", one_of("sprite", "point", "surface", "spheres"), "sprite")
+    look.kind = table.get(
+        "kind", one_of("sprite", "point", "surface", "spheres", "water"), "sprite"
+    )
+    if look.kind == "water":
+        look.water = WaterLook(
+            radius=table.get("radius", positive(), 0.05),
+            clarity=table.get("clarity", positive(), 1.0),
+            scatter=table.get("scatter", number(0.0, 1.0), 0.1),
+            smoothing=table.get("smoothing", number(0.0), 3.0),
+            refraction=table.get("refraction", number(0.0), 0.25),
+            specular=table.get("specular", number(0.0), 1.0),
+            color=table.get("color", _tint, None),
+        )
+        look.visible = table.get("visible", boolean, True)
+        table.finish()
+        return look
     if look.kind == "spheres":
         look.spheres = SpheresLook(
             subdivisions=table.get("subdivisions", integer(0, 3), 1),
