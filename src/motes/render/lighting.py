@@ -100,6 +100,29 @@ def light_particles(lights, ambient, shadowing, x, y, z, rgb, out):
 
 
 @device
+def toward_light(lights, k, wx, wy, wz):
+    """Unit direction from world point ``(wx, wy, wz)`` [m] toward light ``k`` of the
+    packed ``lights``, and the factor on its radiance there (1, or the inverse square of
+    the distance for a point light that falls off)."""
+    lx = lights[k, LIGHT_DIRECTION]
+    ly = lights[k, LIGHT_DIRECTION + 1]
+    lz = lights[k, LIGHT_DIRECTION + 2]
+    scale = 1.0
+    if lights[k, LIGHT_POINT] > 0.5:
+        lx = lights[k, LIGHT_POSITION] - wx
+        ly = lights[k, LIGHT_POSITION + 1] - wy
+        lz = lights[k, LIGHT_POSITION + 2] - wz
+        d2 = max(lx * lx + ly * ly + lz * lz, 1e-12)
+        inv = 1.0 / math.sqrt(d2)
+        lx *= inv
+        ly *= inv
+        lz *= inv
+        if lights[k, LIGHT_FALLOFF] > 0.5:
+            scale = 1.0 / d2
+    return lx, ly, lz, scale
+
+
+@device
 def shade(nx, ny, nz, vx, vy, vz, wx, wy, wz, r, g, b, surfaces, s, lights, ambient, shadowing):
     """Outgoing radiance (r, g, b) of a surface sample (see the module docstring).
 
@@ -119,21 +142,7 @@ def shade(nx, ny, nz, vx, vy, vz, wx, wy, wz, r, g, b, surfaces, s, lights, ambi
     sb = 0.0
     ks = surfaces[s, SPECULAR]
     for k in range(lights.shape[0]):
-        lx = lights[k, LIGHT_DIRECTION]
-        ly = lights[k, LIGHT_DIRECTION + 1]
-        lz = lights[k, LIGHT_DIRECTION + 2]
-        scale = 1.0
-        if lights[k, LIGHT_POINT] > 0.5:
-            lx = lights[k, LIGHT_POSITION] - wx
-            ly = lights[k, LIGHT_POSITION + 1] - wy
-            lz = lights[k, LIGHT_POSITION + 2] - wz
-            d2 = max(lx * lx + ly * ly + lz * lz, 1e-12)
-            inv = 1.0 / math.sqrt(d2)
-            lx *= inv
-            ly *= inv
-            lz *= inv
-            if lights[k, LIGHT_FALLOFF] > 0.5:
-                scale = 1.0 / d2
+        lx, ly, lz, scale = toward_light(lights, k, wx, wy, wz)
         cos_l = (nx * lx + ny * ly + nz * lz) * scale
         if cos_l <= 0.0:
             continue

@@ -24,13 +24,8 @@ from numba import prange
 
 from .._jit import device, parallel_kernel
 from .camera import EYE, FORWARD, HEIGHT, ORTHO, RIGHT, SCALE, UP, WIDTH
-from .shading import (
-    LIGHT_DIRECTION,
-    LIGHT_FALLOFF,
-    LIGHT_POINT,
-    LIGHT_POSITION,
-    LIGHT_RADIANCE,
-)
+from .lighting import toward_light
+from .shading import LIGHT_RADIANCE
 from .tiles import TILE
 
 #: Depth [m] of a pixel without liquid (and of opaque depth where there is nothing).
@@ -363,19 +358,7 @@ def shade(cam, behind, opaque, surface, plain, lights, ambient, params, color, d
             py = x * right_y + y * up_y + z * fwd_y + cam[EYE + 1]
             pz = x * right_z + y * up_z + z * fwd_z + cam[EYE + 2]
             for k in range(lights.shape[0]):
-                lx = lights[k, LIGHT_DIRECTION]
-                ly = lights[k, LIGHT_DIRECTION + 1]
-                lz = lights[k, LIGHT_DIRECTION + 2]
-                scale = 1.0
-                if lights[k, LIGHT_POINT] > 0.5:
-                    lx = lights[k, LIGHT_POSITION] - px
-                    ly = lights[k, LIGHT_POSITION + 1] - py
-                    lz = lights[k, LIGHT_POSITION + 2] - pz
-                    d2 = max(lx * lx + ly * ly + lz * lz, 1e-12)
-                    inv = 1.0 / math.sqrt(d2)
-                    lx, ly, lz = lx * inv, ly * inv, lz * inv
-                    if lights[k, LIGHT_FALLOFF] > 0.5:
-                        scale = 1.0 / d2
+                lx, ly, lz, scale = toward_light(lights, k, px, py, pz)
                 r = lights[k, LIGHT_RADIANCE] * scale
                 g = lights[k, LIGHT_RADIANCE + 1] * scale
                 b = lights[k, LIGHT_RADIANCE + 2] * scale
