@@ -338,21 +338,35 @@ shadows = {shadows}
 """
 
 
-def bench_fire_shadows(sizes: Sizes, quick: bool) -> dict:
-    """The fire over a ground, its frame drawn with and without shadows."""
+def scene_frames(sizes: Sizes, quick: bool, scenes: dict, frames: int) -> dict:
+    """Draw time of each scene in ``scenes`` (name -> ``(text, overrides)``) after
+    ``frames`` frames (a sixth of them with ``quick``), at 1280 x 720 (320 x 180)."""
     from motes.scene import load_scene
-    from motes.scene.scene import builtin_text
 
-    frames = 10 if quick else 60
+    frames = max(1, frames // 6) if quick else frames
     size = (320, 180) if quick else (WIDTH, HEIGHT)
     repeat = max(3, sizes.repeat // 2)
     timings = {}
-    for shadows in (True, False):
-        text = builtin_text("fire") + FIRE_GROUND.format(shadows=str(shadows).lower())
-        scene = load_scene(text, overrides={"system.flame.render.shadows": shadows})
+    for name, (text, overrides) in scenes.items():
+        scene = load_scene(text, overrides=overrides)
         for _ in range(frames):
             scene.advance()
-        timings[shadows] = time_calls(lambda s=scene: s.render(size), repeat=repeat)
+        timings[name] = time_calls(lambda s=scene: s.render(size), repeat=repeat)
+    return timings
+
+
+def bench_fire_shadows(sizes: Sizes, quick: bool) -> dict:
+    """The fire over a ground, its frame drawn with and without shadows."""
+    from motes.scene.scene import builtin_text
+
+    scenes = {
+        shadows: (
+            builtin_text("fire") + FIRE_GROUND.format(shadows=str(shadows).lower()),
+            {"system.flame.render.shadows": shadows},
+        )
+        for shadows in (True, False)
+    }
+    timings = scene_frames(sizes, quick, scenes, frames=60)
     return {
         "with": timings[True],
         "without": timings[False],
@@ -362,19 +376,14 @@ def bench_fire_shadows(sizes: Sizes, quick: bool) -> dict:
 
 def bench_water(sizes: Sizes, quick: bool) -> dict:
     """The dam break's frame drawn with the water look and with the metaball surface."""
-    from motes.scene import load_scene
     from motes.scene.scene import builtin_text
 
-    frames = 4 if quick else 20
-    size = (320, 180) if quick else (WIDTH, HEIGHT)
-    repeat = max(3, sizes.repeat // 2)
-    timings = {}
-    for mode in ("water", "surface"):
-        text = builtin_text("dam_break").replace('mode = "water"', f'mode = "{mode}"')
-        scene = load_scene(text)
-        for _ in range(frames):
-            scene.advance()
-        timings[mode] = time_calls(lambda s=scene: s.render(size), repeat=repeat)
+    text = builtin_text("dam_break")
+    scenes = {
+        mode: (text.replace('mode = "water"', f'mode = "{mode}"'), None)
+        for mode in ("water", "surface")
+    }
+    timings = scene_frames(sizes, quick, scenes, frames=20)
     return {
         "water": timings["water"],
         "surface": timings["surface"],

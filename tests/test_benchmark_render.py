@@ -22,6 +22,9 @@ REQUIRED = (
     "bloom_speedup_vs_scipy",
     "occlusion_720p_ms",
     "fire_shadow_cost_ratio",
+    "water_frame_ms",
+    "surface_frame_ms",
+    "water_over_surface",
 )
 
 
