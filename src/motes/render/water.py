@@ -5,18 +5,21 @@ flow": each particle is splatted as a sphere into a depth buffer (the nearest fr
 and a thickness buffer (the summed chords, up to the opaque depth); the depth is
 smoothed by a bilateral Gaussian whose width follows the particles' size on screen, so
 the spheres' bumps melt into one surface while separate sheets keep their edges; normals
-come from the smoothed depth. The pixel then shows
+come from the smoothed depth. The outline is where a coverage of the spheres, smoothed
+over about one radius, crosses 1/2: a smooth curve rather than the union of discs. A
+wide filter runs at half size and is brought back bilinearly by depth. The pixel then
+shows
 
 - what lies behind, shifted by the surface's tilt times the liquid's thickness
   (refraction, in screen space), attenuated by Beer-Lambert absorption over the
   thickness: ``exp(-sigma * thickness)`` per channel;
 - light scattered back by the liquid's body where it is deep (its colour times the
-  light from above);
+  light from above, growing with the light the body takes out of the view);
 - the sky in the mirror direction and the lights' highlights, weighted by Schlick's
   Fresnel term (2 % at normal incidence for water, all of it at grazing angles).
 
-A liquid thinner than a particle's radius at the silhouette is blended over the
-background by its thickness, which anti-aliases the edge. Pixels the liquid covers take
+A liquid thinner than a particle's radius is blended over the background by its
+thickness (a thin film shows little). Pixels the liquid covers take
 its depth plus one particle radius, so particles drawn after it are hidden behind it,
 except those within a radius of the surface (foam riding on it), which show and fade
 softly into it.

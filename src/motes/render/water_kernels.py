@@ -3,11 +3,13 @@
 1. :func:`splat_spheres`, parallel over screen tiles: every particle is a sphere; each
    pixel keeps the nearest sphere front in front of the opaque depth, and the summed
    length of the spheres' chords up to that depth (the liquid's thickness);
-2. :func:`smooth_rows` then :func:`smooth_columns`, parallel over lines: a separable
-   bilateral Gaussian of the surface depth (van der Laan, Green & Sainz 2009), whose
-   width in pixels follows the particles' size at that depth, and a plain Gaussian of
-   the thickness;
-3. :func:`shade`, parallel over rows: normals from the smoothed depth, then refraction
+2. :func:`smooth_rows`, parallel over rows, on the buffers and on their transposes (the
+   columns): a separable bilateral Gaussian of the surface depth (van der Laan, Green &
+   Sainz 2009), whose width in pixels follows the particles' size at that depth, and a
+   plain Gaussian of the thickness and of the spheres' coverage; at half size
+   (:func:`halve`, :func:`double`) when the filter is wide;
+3. :func:`shade`, parallel over rows: the outline where the smoothed coverage crosses
+   1/2, normals from the smoothed depth, then refraction
    of what lies behind, Beer-Lambert absorption over the thickness, light scattered in
    the liquid's body, Fresnel reflection of the sky and the lights' highlights.
 
