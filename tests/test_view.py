@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from motes.color import linear_to_srgb
+from motes.render.water import Water
 from motes.scene import SceneError, load_scene
 from motes.state import Field, ParticleState
 from motes.view.packet import (
@@ -121,6 +122,17 @@ def test_additive_particles_show_their_hue_and_leave_out_the_dimmest():
     assert len(shown.points["system.smoke/0"].offsets) == n  # alpha-blended: all, as is
     assert np.abs(shown.points["system.smoke/0"].colors - srgb8(color[:3].T)).max() <= 1
     assert shown.points["system.smoke/0"].size == pytest.approx(0.1)  # a diameter
+
+
+def test_a_liquid_drawn_as_water_shows_its_particles_in_its_tint():
+    positions = np.random.default_rng(2).uniform(-0.2, 0.2, (50, 3))
+    water = Water(positions, 0.02, color=(0.3, 0.62, 0.8))
+    shown = packet_of([("body.water", [], [water])], None, index=1, time=0.0)
+    points = shown.points["body.water/shape0"]
+    assert shown.counts["body.water"] == 50 and points.size == pytest.approx(0.032)
+    assert np.allclose(dequantize(points.origin, points.offsets), positions,
+                       atol=quantization_error(points.offsets))  # fmt: skip
+    assert (np.abs(points.colors - srgb8(np.array([0.3, 0.62, 0.8]))) <= 1).all()
 
 
 def srgb8(linear: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ import numpy as np
 from ..color import linear_to_srgb
 from ..render import geometry
 from ..render.volume import Volume
+from ..render.water import Water
 from ..state import as_state
 from . import packet_kernels as kernels
 from .packet_kernels import BLOCK
@@ -165,6 +166,10 @@ def packet_of(parts, camera, *, index: int, time: float, stride: int = 1) -> Fra
                 points = _volume_points(obj)
                 if points is not None:
                     packet.points[name] = points
+            elif isinstance(obj, Water):
+                count += len(obj.positions)
+                if len(obj.positions):
+                    packet.points[name] = _water_points(obj, stride)
             elif hasattr(obj, "triangles"):
                 triangles = obj.triangles(camera)
                 if path != "object" and len(triangles.faces) > MESH_FACES_MAX:
@@ -253,6 +258,15 @@ def _sphere_points(spheres: geometry.Spheres, stride: int) -> Points:
     origin, offsets = quantize(spheres.centers[::stride])
     colors = _srgb8(np.asarray(spheres.colors, np.float32)[::stride])
     return Points(origin, offsets, colors, _diameter(spheres.radii))
+
+
+def _water_points(water: Water, stride: int) -> Points:
+    """A liquid drawn as clear water in the renderer: its particles as points of its tint
+    (a preview, not the refracting surface)."""
+    origin, offsets = quantize(water.positions[::stride])
+    count = len(offsets)
+    colors = np.broadcast_to(_srgb8(np.asarray(water.color, np.float32)[None, :]), (count, 3))
+    return Points(origin, offsets, np.ascontiguousarray(colors), 1.6 * water.radius)
 
 
 def _diameter(radius) -> float:
