@@ -128,6 +128,13 @@ def test_water_look_mistakes_name_the_key(text, message):
         load_scene(SCENE + "  [body.render]\n  " + text + "\n")
 
 
+def test_a_water_tint_without_a_channel_is_named():
+    phase = "  [[body.phase]]\n  color = [0.0, 0.5, 1.0]\n"
+    with pytest.raises(SceneError, match=r"each channel in \(0, 1\]") as error:
+        load_scene(SCENE + phase + '  [body.render]\n  mode = "water"\n')
+    assert error.value.path == "body[0].phase[0].color"
+
+
 @pytest.mark.parametrize(
     ("replace", "path", "message"),
     [

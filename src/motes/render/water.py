@@ -26,7 +26,9 @@ softly into it.
 
 What this is not: refraction is a screen-space shift (what is off screen or hidden
 cannot be refracted), one surface per pixel is shaded (a sheet seen through another
-shows as one thicker body), and the liquid casts no shadows.
+shows as one thicker body), and the liquid casts no shadows. Over a transparent
+background (``render_hdr(transparent=True)``, ``--alpha``) a pixel more than half
+covered counts as opaque: its alpha is 1, with what it refracts of the empty frame.
 """
 
 from __future__ import annotations

@@ -149,9 +149,12 @@ def smooth_rows(surface, plain, sigma, plain_share, inv_range2, out_surface, out
                 c_sum += wp * plain[row, k, 1]
                 t_weight += wp
                 q = surface[row, k]
-                dz = (q - z) * near
+                # an empty tap counts 0, and its difference is 0 too: (EMPTY - z)^2
+                # would overflow float32, and fast math assumes no infinity
+                valid = (q < EMPTY) * one
+                dz = (q - z) * near * valid
                 wr = max(one - dz * dz * inv_range2, zero)
-                wr = w * wr * wr * ((q < EMPTY) * one)
+                wr = w * wr * wr * valid
                 z_sum += wr * q
                 z_weight += wr
             out_plain[row, col, 0] = t_sum / t_weight
@@ -185,8 +188,7 @@ def halve(surface, plain, out_surface, out_plain):
 @parallel_kernel
 def double(surface, half_surface, half_plain, inv_range2, out_surface, out_plain):
     """Half-size smoothed buffers back to full size, bilinear: thickness and coverage
-    everywhere;
-    the depth of each liquid pixel of ``surface`` (the full-size depth before smoothing)
+    everywhere; the depth of each liquid pixel of ``surface`` (the full-size depth before smoothing)
     from the half-size liquid samples near its own depth (the same range weight as the
     smoothing), its own depth where there are none; a pixel without liquid from the
     liquid samples around it (the grown outline), :data:`EMPTY` with none."""
@@ -216,9 +218,10 @@ def double(surface, half_surface, half_plain, inv_range2, out_surface, out_plain
             for r, wr in ((r0, one - fv), (r1, fv)):
                 for c, wc in ((c0, one - fu), (c1, fu)):
                     q = half_surface[r, c]
-                    dz = (q - z) * near
+                    valid = (q < EMPTY) * one  # as in smooth_rows: no overflow
+                    dz = (q - z) * near * valid
                     w = max(one - dz * dz * inv_range2, zero)
-                    w = wr * wc * w * w * ((q < EMPTY) * one)
+                    w = wr * wc * w * w * valid
                     z_sum += w * q
                     z_weight += w
             if z_weight > 1e-6:

@@ -490,6 +490,14 @@ def build_fluid(table: Table, context: BuildContext) -> FluidBody:
     else:
         fluid = fluids.Fluid(model, np.zeros((3, 0)), forces=forces)
     look = _look(table.table("render", optional=True), spacing)
+    if look["mode"] == "water":  # a tint: light through the liquid keeps some of each
+        for k, rgb in enumerate(colors):
+            if min(rgb) <= 0.0 or max(rgb) > 1.0:
+                raise SceneError(
+                    f"{table.key_path('phase')}[{k}].color",
+                    f'must have each channel in (0, 1] with mode = "water" (what white '
+                    f"light becomes after `clarity` metres), got {shown(list(rgb))}",
+                )
     floats = table.tables("float")
     floating = _Floating(fluid, walls, floats, table.key_path("float")) if floats else None
     return FluidBody(fluid, colors=colors, nozzles=nozzles, shakes=shakes,
