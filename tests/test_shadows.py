@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 import pytest
 
 import motes as mo
 from motes.render.frame import Frame
-from motes.render.geometry import Box, Ground, Sphere, casters, draw_geometry
+from motes.render.geometry import Box, Capsule, Ground, Sphere, casters, draw_depth, draw_geometry
 from motes.render.shading import AmbientLight, DirectionalLight
 from motes.render.shadow_pass import prepare
 
@@ -75,6 +76,28 @@ def test_without_shadows_nothing_darkens_and_a_box_shadows_itself_correctly():
     # On the ground, something is darker with shadows, nothing is brighter.
     assert np.count_nonzero(shaded < plain - 0.1) > 1000
     assert np.all(shaded <= plain + 1e-6)
+
+
+def test_a_shadow_maps_depth_is_the_drawn_depth_of_the_casters():
+    """The shadow pass rasterises depth alone (no shading): the same depth, bit for bit,
+    as drawing the casters shaded at one sample per pixel, on 1 and 2 threads."""
+    objects = [
+        Sphere((0.0, 1.0, 0.0), 0.5, subdivisions=4),
+        Box((0.7, 0.5, 0.2), (0.6, 1.0, 0.6)),
+        Capsule((-0.6, 0.1, -0.3), (0.4, 0.1, 0.5), 0.1),
+    ]
+    view = mo.Camera((2, 3, 1), (0, 0.5, 0), projection="orthographic", height=3.0,
+                     resolution=(300, 200))  # fmt: skip
+    frame = Frame(300, 200)
+    draw_geometry(frame, view, objects, lights=[AmbientLight((0, 0, 0))], supersample=1)
+    assert np.isfinite(frame.depth).sum() > 5_000
+    previous = numba.get_num_threads()
+    try:
+        for threads in (1, min(2, numba.config.NUMBA_NUM_THREADS)):
+            numba.set_num_threads(threads)
+            np.testing.assert_array_equal(draw_depth(view, objects), frame.depth)
+    finally:
+        numba.set_num_threads(previous)
 
 
 def test_shadows_flag_is_checked():

@@ -672,11 +672,12 @@ def _draw_tile(
 
 @parallel_kernel
 def draw_tiles(
-    cam, ss, starts, items, tiles_x, tri_count, tri, tri_face, tri_facing, positions, normals,
-    colors, faces, face_surface, face_normal, surfaces, lights, ambient, shadowing, lines,
-    seg_colors, color, depth,
+    cam, ss, order, starts, items, tiles_x, tri_count, tri, tri_face, tri_facing, positions,
+    normals, colors, faces, face_surface, face_normal, surfaces, lights, ambient, shadowing,
+    lines, seg_colors, color, depth,
 ):  # fmt: skip
-    """Draw every tile's triangles, then its lines, and resolve into the frame.
+    """Draw every tile's triangles, then its lines, and resolve into the frame; tiles are
+    visited in ``order`` (:attr:`motes.render.tiles.TileBins.order`).
 
     Items ``< tri_count`` are screen-triangle slots, the rest line segments
     ``item - tri_count``; ``bin_boxes`` keeps input order, so within a tile all
@@ -693,9 +694,43 @@ def draw_tiles(
     ``color`` (h, w, 3) float32 and ``depth`` (h, w) float32 are read and written.
     """
     pixel_size = 1.0 / cam[SCALE]
-    for t in numba.prange(starts.shape[0] - 1):
+    for n in numba.prange(order.shape[0]):
         _draw_tile(
-            cam, pixel_size, ss, t, starts, items, tiles_x, tri_count, tri, tri_face,
+            cam, pixel_size, ss, order[n], starts, items, tiles_x, tri_count, tri, tri_face,
             tri_facing, positions, normals, colors, faces, face_surface, face_normal, surfaces,
             lights, ambient, shadowing, lines, seg_colors, color, depth,
         )  # fmt: skip
+
+
+@serial_kernel
+def _depth_tile(t, starts, items, tiles_x, tri, far, depth):
+    """Rasterise tile ``t``'s triangles into ``depth`` (one sample per pixel)."""
+    height, width = depth.shape
+    first = starts[t]
+    last = starts[t + 1]
+    if first == last:
+        return
+    px0 = (t % tiles_x) * TILE
+    py0 = (t // tiles_x) * TILE
+    pw = min(TILE, width - px0)
+    ph = min(TILE, height - py0)
+    zbuf = np.empty((ph, pw), dtype=np.float32)
+    owner = np.empty((ph, pw), dtype=np.int32)
+    for y in range(ph):
+        for x in range(pw):
+            zbuf[y, x] = depth[py0 + y, px0 + x]
+    for k in range(first, last):
+        _raster_triangle(tri, items[k], px0, py0, pw, ph, far, zbuf, owner)
+    for y in range(ph):
+        for x in range(pw):
+            depth[py0 + y, px0 + x] = zbuf[y, x]
+
+
+@parallel_kernel
+def depth_tiles(cam, order, starts, items, tiles_x, tri, depth):
+    """Nearest depth of every tile's triangles, written into ``depth`` (h, w) float32:
+    visibility alone, as a shadow map needs (no shading, no supersampling, no lines).
+    Tiles are visited in ``order``, as in :func:`draw_tiles`."""
+    far = cam[FAR]
+    for n in numba.prange(order.shape[0]):
+        _depth_tile(order[n], starts, items, tiles_x, tri, far, depth)

@@ -25,7 +25,15 @@ import numpy as np
 
 from .. import _validate as check
 from ..geometry.mesh import TriangleMesh
-from ._raster import CORNER, LINE_SIZE, draw_tiles, project_vertices, setup_lines, setup_triangles
+from ._raster import (
+    CORNER,
+    LINE_SIZE,
+    depth_tiles,
+    draw_tiles,
+    project_vertices,
+    setup_lines,
+    setup_triangles,
+)
 from .camera import Camera
 from .frame import Frame
 from .shading import (
@@ -672,10 +680,34 @@ def draw_geometry(
     box = np.concatenate([tri_box, line_box], axis=1)
     bins = bin_boxes(box[0], box[1], box[2], box[3], frame.width, frame.height)
     draw_tiles(
-        cam, ss, bins.starts, bins.items, bins.tiles_x, slots, tri, tri_face, tri_facing,
-        positions, normals, colors, faces, face_surface, face_normal, surfaces, shadowing.lights,
-        shadowing.ambient, shadowing.arrays, lines, seg_colors, frame.color, frame.depth,
+        cam, ss, bins.order, bins.starts, bins.items, bins.tiles_x, slots, tri, tri_face,
+        tri_facing, positions, normals, colors, faces, face_surface, face_normal, surfaces,
+        shadowing.lights, shadowing.ambient, shadowing.arrays, lines, seg_colors, frame.color,
+        frame.depth,
     )  # fmt: skip
+
+
+def draw_depth(camera: Camera, objects) -> np.ndarray:
+    """(h, w) float32 view depth [m] of the nearest of ``objects`` (grounds, spheres,
+    capsules, boxes, meshes) in each pixel of ``camera``, ``inf`` where there is none:
+    what :func:`draw_geometry` writes into ``frame.depth`` at one sample per pixel,
+    without shading anything (a shadow map's pass)."""
+    width, height = camera.resolution
+    depth = np.full((height, width), np.inf, dtype=np.float32)
+    positions, _, _, faces, _, _ = _combine([obj.triangles(camera) for obj in objects])
+    cam = camera.packed()
+    view = np.empty_like(positions)
+    project_vertices(cam, positions, view)
+    slots = 2 * len(faces)
+    tri = np.empty((slots, 3, CORNER))
+    tri_box = np.empty((4, slots), dtype=np.int32)
+    setup_triangles(
+        cam, 1, positions, view, faces, tri, np.empty(slots, dtype=np.int32), np.zeros(slots),
+        np.empty((len(faces), 3)), tri_box,
+    )  # fmt: skip
+    bins = bin_boxes(*tri_box, width, height)
+    depth_tiles(cam, bins.order, bins.starts, bins.items, bins.tiles_x, tri, depth)
+    return depth
 
 
 def _light_share(shadowing: Shadowing, ends: np.ndarray) -> np.ndarray:

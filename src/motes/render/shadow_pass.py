@@ -7,8 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from .camera import PACKED_SIZE
-from .frame import Frame
-from .geometry import draw_geometry
+from .geometry import draw_depth
 from .opacity import GRID, SLICES, opacity_map
 from .shading import (
     LIGHT_OPACITY,
@@ -19,7 +18,7 @@ from .shading import (
     default_lights,
     pack_lights,
 )
-from .shadows import RESOLUTION, Shadowing, casters_sphere, light_camera
+from .shadows import Shadowing, casters_sphere, light_camera, map_resolution
 
 
 def prepare(lights, casters, camera, particles=()) -> Shadowing:
@@ -38,13 +37,12 @@ def prepare(lights, casters, camera, particles=()) -> Shadowing:
     if shadowed and casters:
         points = np.concatenate([o.triangles(camera).positions for o in casters])
         center, radius = casters_sphere(points)
+        side = map_resolution(camera, center, radius)  # one size: the maps are stacked
         for k in shadowed:
-            view = light_camera(rows[k].direction, center, radius)
-            depth = Frame(RESOLUTION, RESOLUTION)
-            draw_geometry(depth, view, casters, lights=[AmbientLight((0, 0, 0))], supersample=1)
+            view = light_camera(rows[k].direction, center, radius, side)
             packed[k, LIGHT_SHADOW] = len(maps)
             cams.append(view.packed())
-            maps.append(depth.depth)
+            maps.append(draw_depth(view, casters))
     particles = [p for p in particles if len(p[0])]
     if shadowed and particles:
         points = np.concatenate([p[0] for p in particles])

@@ -83,7 +83,7 @@ from . import splat_kernels as splat
 from . import sprite_kernels as k
 from .camera import Camera
 from .frame import Frame
-from .tiles import CHUNK, TILE, bin_boxes, scan_counts
+from .tiles import CHUNK, TILE, bin_boxes, interleaved, scan_counts
 
 __all__ = ["Blend", "Falloff", "SpriteKind", "SpriteRasterizer", "SpriteStyle", "draw_particles"]
 
@@ -362,7 +362,7 @@ class SpriteRasterizer:
                 self._draw_fast(frame, texture, *fast)
             if general:
                 k.draw_kernel(kind, streak)(
-                    binned, bins.starts, _tile_order(bins.tiles_x * bins.tiles_y),
+                    binned, bins.starts, bins.order,
                     bins.tiles_x, style.blend is Blend.ADDITIVE,
                     fp.inverse_softness(style.softness), texture, frame.depth, frame.color,
                 )  # fmt: skip
@@ -501,18 +501,9 @@ def _parity_phases(tiles_x: int, tiles_y: int) -> list[np.ndarray]:
 
     Tiles of one phase are two tiles apart, so footprints reaching half a tile beyond
     their owners never meet (see :mod:`.splat_kernels`). Each phase is interleaved like
-    :func:`_tile_order`.
+    :func:`motes.render.tiles.interleaved`.
     """
     tx, ty = np.meshgrid(np.arange(tiles_x), np.arange(tiles_y))
     tile = (ty * tiles_x + tx).ravel()
     phase = ((tx % 2) + 2 * (ty % 2)).ravel()
-    return [tile[phase == p][_tile_order(int(np.sum(phase == p)))] for p in range(4)]
-
-
-def _tile_order(tiles: int, stride: int = 8) -> np.ndarray:
-    """Tiles interleaved so each thread's share of ``prange`` spreads over the image.
-
-    ``prange`` gives each thread a contiguous run of iterations; in row-major order that
-    would be a band of the image, and particles are rarely spread evenly over bands.
-    """
-    return np.concatenate([np.arange(s, tiles, stride) for s in range(stride)]).astype(np.int64)
+    return [tile[phase == p][interleaved(int(np.sum(phase == p)))] for p in range(4)]

@@ -25,11 +25,25 @@ TILE = 32
 CHUNK = 16384
 
 
+def interleaved(count: int, stride: int = 8) -> np.ndarray:
+    """``0 .. count - 1`` interleaved (int64): ``0, stride, 2 stride, ..., 1, 1 + stride,
+    ...``, the order in which to visit tiles (or rows) in a ``prange``.
+
+    ``prange`` gives each thread a contiguous run of iterations; in row-major order that
+    would be a band of the image, and the work is rarely spread evenly over bands (a
+    ground fills the bottom half, a flame the middle). Interleaved, each thread's share
+    spreads over the whole image. The order changes which thread draws a tile, never
+    what is drawn.
+    """
+    return np.concatenate([np.arange(s, count, stride) for s in range(stride)]).astype(np.int64)
+
+
 class TileBins:
     """Items listed per tile: ``items[starts[t]:starts[t + 1]]`` are tile ``t``'s, in order.
 
     Tiles are numbered row-major: tile ``t`` covers columns ``(t % tiles_x) * TILE`` onward
-    and rows ``(t // tiles_x) * TILE`` onward.
+    and rows ``(t // tiles_x) * TILE`` onward. ``order`` lists the tiles interleaved
+    (:func:`interleaved`), for the kernels that draw them in parallel.
     """
 
     def __init__(self, starts, items, tiles_x, tiles_y):
@@ -37,6 +51,10 @@ class TileBins:
         self.items = items
         self.tiles_x = tiles_x
         self.tiles_y = tiles_y
+
+    @property
+    def order(self) -> np.ndarray:
+        return interleaved(self.tiles_x * self.tiles_y)
 
 
 @parallel_kernel

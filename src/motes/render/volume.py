@@ -47,6 +47,7 @@ from .shading import (
 )
 from .shadows import Shadowing, casters_sphere, light_camera
 from .sprites import Blend, SpriteStyle
+from .tiles import interleaved
 from .volume_blackbody import (
     BLACKBODY_MIN_K,
     BLACKBODY_REFERENCE_K,
@@ -486,11 +487,6 @@ def volume_casters(volume: Volume, texel: float) -> tuple[np.ndarray, np.ndarray
     return positions, np.full(len(index), radius), alpha
 
 
-def _row_order(rows: int, stride: int = 8) -> np.ndarray:
-    """Rows interleaved so each thread's share of ``prange`` spreads over the image."""
-    return np.concatenate([np.arange(s, rows, stride) for s in range(stride)]).astype(np.int64)
-
-
 def march_volume(frame: Frame, camera: Camera, lit: LitVolume, transmittance: np.ndarray) -> None:
     """Composite the lit volume over ``frame.color`` (``color T + L``), stopping rays at
     ``frame.depth``, and multiply ``transmittance`` (H, W) by each pixel's ``T``."""
@@ -506,7 +502,7 @@ _NO_RECORD = np.zeros((1, 1, 1, 4), np.float32)
 def _march(camera, lit, x0, y0, factor, depth, color, trans, z0, thick, record) -> None:
     march(
         camera.packed(), lit.grid, lit.bricks, BRICK, lit.lo, lit.hi, lit.inner, lit.medium,
-        lit.lights, lit.ambient, blackbody_table(), _row_order(depth.shape[0]), x0, y0, factor,
+        lit.lights, lit.ambient, blackbody_table(), interleaved(depth.shape[0]), x0, y0, factor,
         depth, color, trans, z0, thick, record,
     )  # fmt: skip
 
