@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: Where in the run each still is taken (fraction of the frames), where 0.6 misses the
 #: moment that shows the effect.
 STILL_AT = {
-    "explosion": 0.1,
+    "explosion": 0.14,
     "galaxies": 0.65,
     "fireworks": 0.5,
     "curtain": 0.85,
@@ -102,7 +102,7 @@ def write_index(out: Path, rows, scenes) -> None:
     for name in sorted(sections):
         if name in scenes:
             lines += sections[name]
-    (out / "README.md").write_text("\n".join(lines))
+    (out / "README.md").write_text("\n".join(lines) + "\n")
 
 
 def _sections(index: Path) -> dict[str, list[str]]:

@@ -111,7 +111,7 @@ def test_a_flock_draws_again_pixel_for_pixel(tmp_path, draw):
     [
         (("--frames", "7:9"), "selects no frame"),
         (("--frames", "x"), "must look like 10:20"),
-        (("--scene", "fire"), "draws system 'flame', which it does not"),
+        (("--scene", "fire"), "draws system 'flame', system 'embers', which it does not"),
     ],
 )
 def test_mistakes_exit_2_with_one_line_and_write_nothing(tmp_path, capsys, extra, message):

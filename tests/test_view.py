@@ -124,6 +124,31 @@ def test_additive_particles_show_their_hue_and_leave_out_the_dimmest():
     assert shown.points["system.smoke/0"].size == pytest.approx(0.1)  # a diameter
 
 
+def test_a_faint_flame_is_shown_as_its_brightest_would_be_at_full_light():
+    """Additive light is judged against the system's brightest particle: a flame of
+    thousands of sprites a tenth as bright each shows the same points as a bright one."""
+    color = np.array([
+        [1.0, 0.8, 0.006, 1.0],
+        [1.0, 0.4, 0.02, 1 / 3],
+        [1.0, 1.0, 1.0, 0.05],  # under a tenth of the brightest: left out
+    ], np.float32).T  # fmt: skip
+    n = color.shape[1]
+
+    def shown(alpha_scale):
+        faded = color.copy()
+        faded[3] *= alpha_scale
+        state = ParticleState(np.arange(n, dtype=np.int64), np.arange(3.0 * n).reshape(3, n),
+                              np.zeros((3, n)), np.full(n, 0.05),
+                              {"color": Field(faded)})  # fmt: skip
+        fire = SimpleNamespace(blend="additive", intensity=1.0)
+        return packet_of([("system.fire", [(state, fire)], [])], None, index=1,
+                         time=0.0).points["system.fire/0"]  # fmt: skip
+
+    bright, faint = shown(1.0), shown(0.08)
+    assert len(faint.offsets) == len(bright.offsets) == 2
+    assert np.abs(faint.colors.astype(int) - bright.colors).max() <= 1
+
+
 def test_a_liquid_drawn_as_water_shows_its_particles_in_its_tint():
     positions = np.random.default_rng(2).uniform(-0.2, 0.2, (50, 3))
     water = Water(positions, 0.02, color=(0.3, 0.62, 0.8))

@@ -101,7 +101,7 @@ def _screenshot_until(page: DevTools, done, *, timeout: float) -> np.ndarray:
 
 def test_the_page_shows_the_live_status(visit):
     assert visit.status["frame"] >= 20
-    # 12,000 births a second living 0.8 to 1.6 s: thousands after 20 frames.
+    # 14,000 births a second living 0.5 to 1.2 s: thousands after 20 frames.
     assert visit.status["particles"] > 2_000
     assert visit.status["simulated_fps"] > 0
 

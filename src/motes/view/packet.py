@@ -213,19 +213,21 @@ def _srgb8(linear: np.ndarray) -> np.ndarray:
     return np.round(encoded * 255.0).astype(np.uint8)
 
 
-#: Additive particles emitting less than this (brightest channel of colour × alpha ×
-#: intensity) are not sent: an opaque point cannot add faint light, it would hide what
-#: lies behind it under a dark disc (a flame's dying particles).
+#: Additive particles emitting less than this share of their system's brightest (by the
+#: brightest channel of colour × alpha × intensity; of 1 when the brightest gives more)
+#: are not sent: an opaque point cannot add faint light, it would hide what lies behind
+#: it under a dark disc (a flame's dying particles). Relative, because a flame drawn by
+#: thousands of overlapping sprites gives a tenth of its light or less in each.
 DIM_LIGHT = 0.1
 
 
 def _points_of(state, style, stride: int) -> Points | None:
     """A system's particles as points (None if none is shown). Points are opaque:
     alpha-blended particles show their colour; additive ones (light) show their hue at a
-    brightness that falls with their light only down to half, and the dimmest are left
-    out (:data:`DIM_LIGHT`). Packed by :mod:`.packet_kernels` (offsets rounded to float32,
-    then float16: within :func:`quantization_error`; colours within one 8-bit level of
-    :func:`_srgb8`'s)."""
+    brightness that falls with their light (over the system's brightest, when that is
+    below 1) only down to half, and the dimmest are left out (:data:`DIM_LIGHT`). Packed
+    by :mod:`.packet_kernels` (offsets rounded to float32, then float16: within
+    :func:`quantization_error`; colours within one 8-bit level of :func:`_srgb8`'s)."""
     positions = state.positions
     if "color" in state:
         color = state["color"]
@@ -236,6 +238,11 @@ def _points_of(state, style, stride: int) -> Points | None:
     intensity = float(getattr(style, "intensity", 1.0))
     taken = -(-positions.shape[1] // stride)
     blocks = -(-taken // BLOCK)
+    if mode == kernels.LIGHT and taken:
+        peaks = np.zeros(blocks)
+        kernels.brightest(color, stride, intensity, peaks)
+        if 0.0 < peaks.max() < 1.0:
+            intensity /= float(peaks.max())  # the brightest particle gives 1
     counts = np.zeros(blocks, np.int64)
     low, high = np.empty((blocks, 3)), np.empty((blocks, 3))
     args = (positions, color, stride, mode, intensity, DIM_LIGHT)

@@ -56,6 +56,18 @@ def _shown(color, p, mode, intensity, dim):
 
 
 @parallel_kernel
+def brightest(color, stride, intensity, peaks):
+    """``peaks[b]``: the brightest channel of colour × alpha × intensity over block ``b``
+    of the taken particles (0 for none)."""
+    m = (color.shape[1] + stride - 1) // stride
+    for b in prange(block_count(m)):
+        peak = 0.0
+        for q in range(b * BLOCK, min(m, (b + 1) * BLOCK)):
+            peak = max(peak, _light(color, q * stride, intensity)[3])
+        peaks[b] = peak
+
+
+@parallel_kernel
 def count_shown(positions, color, stride, mode, intensity, dim, counts, low, high):
     """Per block of the taken particles: ``counts[b]`` shown, their box ``low[b]``,
     ``high[b]`` (3,) (±:data:`FAR` for an empty block)."""
