@@ -267,6 +267,59 @@ def test_a_live_value_acts_from_the_next_step(scene_file):
     assert np.median(after - before[: len(after)]) < -0.5  # ~ -1 m/s per frame, not -0.33
 
 
+BODIES = """\
+[scene]
+duration = 1.0
+fps = 30
+
+[[body]]
+name = "water"
+type = "fluid"
+spacing = 0.05
+viscosity = 0.01
+  [[body.wall]]
+  type = "tank"
+  lower = [0, 0, 0]
+  upper = [0.6, 0.6, 0.3]
+  [[body.block]]
+  lower = [0, 0, 0]
+  upper = [0.3, 0.3, 0.3]
+
+[[body]]
+name = "birds"
+type = "flock"
+count = 300
+speed = 3.0
+max_speed = 4.0
+"""
+
+
+def test_a_liquids_and_a_flocks_live_values_act_on_them_from_the_next_step(tmp_path):
+    path = tmp_path / "bodies.toml"
+    path.write_text(BODIES)
+    found = {p.key: p for p in parameters(BODIES)}
+    assert found["body.water.viscosity"].live and not found["body.water.spacing"].live
+    assert found["body.birds.max_speed"].live and not found["body.birds.count"].live
+    source = LiveSource(path)
+    source.restart()
+    for _ in range(3):
+        source.advance()
+    water, birds = source.scene.bodies["water"], source.scene.bodies["birds"]
+    held = water.count()
+    values = {"body.water.viscosity": 0.2, "body.water.iterations": 6, "body.birds.max_speed": 1.5}
+    assert source.set_values(values) == []
+    assert source.scene.bodies["water"] is water and source.scene.bodies["birds"] is birds
+    assert (water.fluid.model.viscosity, water.fluid.model.iterations) == (0.2, 6)
+    assert water.fluid.model.derived["h"] == 2 * 0.05  # the resolution is kept
+    source.advance()
+    assert water.count() == held  # the same particles, going on
+    speeds = np.linalg.norm(birds.flock.velocity, axis=0)
+    assert speeds.max() <= 1.5 * (1 + 1e-5) and speeds.min() > 1.0  # slowed, not reset
+    # a value that shapes the body waits for the restart
+    assert source.set_values({"body.water.spacing": 0.04}) == ["body.water.spacing"]
+    assert water.fluid.model.spacing == 0.05
+
+
 def test_a_value_out_of_range_changes_nothing(scene_file):
     source = LiveSource(scene_file)
     source.restart()

@@ -71,6 +71,13 @@ class Body(ABC):
         the body again without simulating it (``motes render CACHE``)."""
         raise NotImplementedError(f"{type(self).__name__} cannot be drawn from a cache")
 
+    def take_values(self, fresh: Body) -> None:
+        """Adopt the values of :data:`LIVE_KEYS` for this body's type from ``fresh`` (the
+        same body built from the scene file with new values), keeping everything that
+        moves: what the live viewer does when such a value changes. Bodies without live
+        keys keep theirs until the scene restarts."""
+        return None
+
     def link(self, bodies: dict) -> None:
         """Resolve references to other bodies by name (``bodies``: every body of the
         scene, this one included), once all are built; raise :class:`SceneError` naming
@@ -114,6 +121,37 @@ class BuildContext:
 
 
 Builder = Callable[[Table, BuildContext], Body]
+
+#: Keys of a ``[[body]]`` table, by ``type``, whose values can act on a running body from
+#: its next step (:meth:`Body.take_values`; the live viewer's controls). A body's other
+#: values, and every value of the types not listed, act when the scene restarts: they
+#: shape what the body is made of (its particles, mesh, grid, walls) or what it is
+#: joined to.
+LIVE_KEYS: dict[str, tuple[str, ...]] = {
+    "fluid": (
+        "iterations",
+        "xsph",
+        "viscosity",
+        "viscosity_width",
+        "repulsion",
+        "tensile",
+        "vorticity",
+        "relaxation",
+        "max_dt",
+        "force",
+    ),
+    "flock": (
+        "separation",
+        "alignment",
+        "cohesion",
+        "min_speed",
+        "max_speed",
+        "max_acceleration",
+        "max_turn_rate",
+        "flap_frequency",
+        "bank_time",
+    ),
+}
 
 #: Body type name -> builder. Filled by the modules in ``_BODY_MODULES`` at first use.
 BODY_TYPES: dict[str, Builder] = {}

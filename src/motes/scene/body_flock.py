@@ -106,6 +106,14 @@ class FlockBody(Body):
             self.flock.add(build(path, cls, other.flock, **options))
         self.pending = []
 
+    def take_values(self, fresh: FlockBody) -> None:
+        """The rules, limits, wing beat and banking of ``fresh`` (see ``LIVE_KEYS``),
+        over this flock's boids and behaviours."""
+        new = fresh.flock
+        for name in ("separation", "alignment", "cohesion", "limits", "flap_frequency",
+                     "bank_time"):  # fmt: skip
+            setattr(self.flock, name, getattr(new, name))
+
     def step(self, dt: float) -> None:
         self.flock.step(dt)
         if not np.isfinite(self.flock.position).all():

@@ -12,6 +12,7 @@ where Ihmsen et al.'s potentials say air is mixed in (:mod:`motes.fluids.foam`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -27,7 +28,7 @@ from ..render.sprites import SpriteStyle
 from ..render.water import Water
 from ..spatial.index import STRUCTURES
 from ..state import Field
-from .bodies import Body, BuildContext, register
+from .bodies import LIVE_KEYS, Body, BuildContext, register
 from .parts import body_forces, placed_mesh
 from .schema import (
     SceneError,
@@ -113,6 +114,10 @@ class _Shake:
         self.offset = target
 
 
+#: The fluid model's settings a running liquid takes from new values.
+_LIVE_SETTINGS = tuple(key for key in LIVE_KEYS["fluid"] if key != "force")
+
+
 class FluidBody(Body):
     """A liquid in a scene: steps the fluid, its nozzles and shaken tanks; draws it."""
 
@@ -158,6 +163,13 @@ class FluidBody(Body):
         self._shown = entry.state
         for shake in self.shakes:  # the tank where it was at that time
             shake.move(time)
+
+    def take_values(self, fresh: FluidBody) -> None:
+        """The solver settings and forces of ``fresh`` (see ``LIVE_KEYS``), over this
+        liquid's particles, phases and walls."""
+        settings = {key: getattr(fresh.fluid.model, key) for key in _LIVE_SETTINGS}
+        self.fluid.model = dataclasses.replace(self.fluid.model, **settings)
+        self.fluid.forces = list(fresh.fluid.forces)
 
     def step(self, dt: float) -> None:
         for shake in self.shakes:

@@ -6,8 +6,10 @@ Every number (or pair or triple of numbers) of a scene's ``[scene]``, ``[[system
 and render settings are left out: the browser has its own camera and draws without
 them. A parameter is *live* when changing it can act on the running simulation from
 the next step: those of a system's emitters, forces, modifiers, colliders and
-collisions. The rest (a scene's duration or seed, a system's capacity, every body's)
-act when the scene restarts.
+collisions, and a body's :data:`~motes.scene.bodies.LIVE_KEYS` (a liquid's solver
+settings and forces, a flock's rules and limits). The rest (a scene's duration or
+seed, a system's capacity, a cloth's or a rigid world's values) act when the scene
+restarts.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..scene.bodies import LIVE_KEYS
 from ..scene.overrides import apply_overrides
 
 __all__ = ["LIVE_PARTS", "Parameter", "parameters", "save_scene"]
@@ -70,7 +73,9 @@ def parameters(text: str, overrides: dict | None = None) -> list[Parameter]:
                 for key, item in table.items():
                     if key in SKIPPED:
                         continue
-                    live = section == "system" and key in LIVE_PARTS
+                    live = (section == "system" and key in LIVE_PARTS) or (
+                        section == "body" and key in LIVE_KEYS.get(table.get("type"), ())
+                    )
                     _walk_item(item, f"{section}.{part}.{key}", group, key, live, found)
     return found
 

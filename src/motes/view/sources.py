@@ -138,6 +138,8 @@ class LiveSource(Source):
         self.parameters = parameters(self.text, self._file_values())
         live = {p.key for p in self.parameters if p.live}
         _take_parts(self.scene, fresh)
+        for name, body in self.scene.bodies.items():
+            body.take_values(fresh.bodies[name])
         return [key for key in values if key not in live]
 
     def save(self, path: Path) -> None:
