@@ -100,6 +100,19 @@ def test_a_shadow_maps_depth_is_the_drawn_depth_of_the_casters():
         numba.set_num_threads(previous)
 
 
+def test_a_shadow_map_has_about_a_texel_per_pixel_at_its_casters():
+    from motes.render.shadows import MIN_RESOLUTION, RESOLUTION, map_resolution
+
+    camera = mo.Camera((0, 0, 10), (0, 0, 0), fov=40, resolution=(1280, 720))
+    sides = [map_resolution(camera, (0, 0, z), 1.0) for z in (-40, -10, 0, 5, 7, 8.5)]
+    assert sides == sorted(sides) and all(side % 32 == 0 for side in sides)
+    assert sides[0] == MIN_RESOLUTION and sides[-1] == RESOLUTION
+    # 3 m away: 2 m across at 720 / (2 tan 20°) px per metre at 2 m (its nearest point)
+    pixels = 2.0 * 360 / math.tan(math.radians(20)) / 2.0
+    assert map_resolution(camera, (0, 0, 7), 1.0) == 32 * math.ceil(pixels / 32)
+    assert map_resolution(camera, (0, 0, 9.5), 1.0) == RESOLUTION  # the eye is inside
+
+
 def test_shadows_flag_is_checked():
     with pytest.raises(TypeError, match="shadows must be True or False"):
         DirectionalLight((0, -1, 0), shadows="yes")

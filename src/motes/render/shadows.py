@@ -73,8 +73,9 @@ def map_resolution(camera: Camera, center, radius: float) -> int:
 
     A texel much smaller than the pixel it lands in sharpens nothing (percentage-closer
     filtering blurs over five texels anyway) and costs raster time and cache misses:
-    two logs seen from 3.6 m take a 640-texel map instead of 2048. Casters around or
-    behind the camera get the most.
+    the `fire` scene's two logs, about 400 pixels across at 1280 x 720, take the
+    smallest map (512) instead of 2048. Casters around or behind the camera get the
+    most.
     """
     depth = float(camera.to_view(np.asarray(center, dtype=np.float64))[0][2]) - radius
     if camera.projection is Projection.PERSPECTIVE and depth <= camera.near:

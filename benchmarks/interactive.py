@@ -1,0 +1,156 @@
+"""Interactive budgets: a million-particle fire stepped and drawn each frame, and the wait
+for the first run's first frame.
+
+Run from the repository root::
+
+    PYTHONPATH=src python -m benchmarks.interactive            # about three minutes
+    PYTHONPATH=src python -m benchmarks.interactive --quick    # seconds: 20,000 particles,
+                                                               # no cold start
+
+- **frame**: the demo fire (:func:`motes.demo.build_fire`) held at 1,000,000 live
+  particles (:func:`benchmarks.emitter.fire_system`), one step of 1/60 s and its frame
+  drawn as additive sprites at 1280 x 720 from the ``fire`` scene's camera, tone mapped
+  to 8 bits: ``fire_1m_frame_ms`` (target <= 33, 30 frames a second), and the two parts
+  timed alone in the same run, ``fire_1m_step_ms`` (target <= 18) and
+  ``fire_1m_draw_ms`` (the sprites' target, ``additive_1m_ms`` of
+  ``benchmarks.render``, is <= 15 for the splat of a million sprites of 2.5-3.7 px;
+  these are larger and the frame is tone mapped).
+- **cold start**: ``python -m motes run fire -o fire.mp4`` in a fresh process with an
+  empty kernel cache (``NUMBA_CACHE_DIR`` set to a new folder): seconds until its
+  progress line for frame 1 (``cold_first_frame_s``, target <= 10) and until it exits
+  (``cold_start_fire_s``, target <= 25); then the same command again with the cache it
+  left (``warm_start_fire_s``). Skipped with ``--quick`` (the figures are then null):
+  compiling takes a minute or more.
+
+Timings are the best of several calls after warm-up calls, with the median beside them.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from motes import Camera, Renderer, SpriteStyle
+
+from ._common import benchmark_main, machine, table, time_calls
+from .emitter import fire_system
+
+WIDTH, HEIGHT = 1280, 720
+#: The demo fire's step [s] (its birth rate is per frame of 1/60 s).
+DT = 1.0 / 60.0
+#: A progress line of ``motes run`` for frame 1 (``fire [###...] 1/240 ...``).
+FIRST_FRAME = re.compile(r"\s1/\d+\s")
+
+
+def bench_frame(live: int, repeat: int) -> dict:
+    """Step plus draw of the fire held at ``live`` particles, and each part alone."""
+    system = fire_system(live)
+    camera = Camera((0.0, 1.1, 3.6), (0.0, 0.9, 0.0), fov=40, resolution=(WIDTH, HEIGHT))
+    renderer = Renderer(camera, supersample=1)
+    drawn = [(system, SpriteStyle(blend="additive"))]
+
+    def frame():
+        system.step(DT)
+        renderer.render(drawn)
+
+    both = time_calls(frame, repeat=repeat, warmup=2)
+    step = time_calls(lambda: system.step(DT), repeat=repeat, warmup=1)
+    draw = time_calls(lambda: renderer.render(drawn), repeat=repeat, warmup=1)
+    return {"frame": both, "step": step, "draw": draw, "live": len(system)}
+
+
+def run_fire(cache: Path, out: Path) -> tuple[float | None, float]:
+    """Run ``motes run fire`` with kernel cache ``cache``: seconds to frame 1's progress
+    line (None if it never printed one) and to the end. Raises if the run fails."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
+    command = [sys.executable, "-m", "motes", "run", "fire", "-o", str(out), "--overwrite"]
+    started = time.perf_counter()
+    first = None
+    lines = []
+    with subprocess.Popen(
+        command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env
+    ) as process:
+        for line in process.stdout:
+            lines.append(line)
+            if first is None and FIRST_FRAME.search(line):
+                first = time.perf_counter() - started
+        status = process.wait()
+    total = time.perf_counter() - started
+    if status != 0:
+        raise RuntimeError(f"{' '.join(command)} exited with {status}:\n{''.join(lines[-20:])}")
+    return first, total
+
+
+def bench_cold_start() -> dict:
+    """The fire scene's first run with an empty kernel cache, then a second one."""
+    with tempfile.TemporaryDirectory() as folder:
+        cache, out = Path(folder) / "numba", Path(folder) / "fire.mp4"
+        cache.mkdir()
+        first, cold = run_fire(cache, out)
+        _, warm = run_fire(cache, out)
+    return {"first": first, "cold": cold, "warm": warm}
+
+
+def run(*, quick: bool, out=print) -> dict:
+    info = machine()
+    live = 20_000 if quick else 1_000_000
+    f = bench_frame(live, repeat=3 if quick else 10)
+    figures = {
+        "date": time.strftime("%Y-%m-%d"),
+        "quick": quick,
+        "cpu_count": info["cpu_count"],
+        "numba_threads": info["numba_threads"],
+        "background_busy_cores": info["background_busy_cores"],
+        "sizes": {"live": live, "resolution": [WIDTH, HEIGHT]},
+        "fire_1m_frame_ms": 1e3 * f["frame"].best,
+        "fire_1m_frame_median_ms": 1e3 * f["frame"].median,
+        "fire_1m_step_ms": 1e3 * f["step"].best,
+        "fire_1m_draw_ms": 1e3 * f["draw"].best,
+        "fire_1m_live": f["live"],
+    }
+    frame_ms, median_ms = 1e3 * f["frame"].best, 1e3 * f["frame"].median
+    rows = [
+        ("fire", f"{live:,} live particles (after timing: {f['live']:,}), {WIDTH} x {HEIGHT}"),
+        ("step + draw", f"{frame_ms:9.2f} ms (median {median_ms:.2f}; target <= 33)"),
+        ("step alone", f"{1e3 * f['step'].best:9.2f} ms (target <= 18)"),
+        ("draw alone", f"{1e3 * f['draw'].best:9.2f} ms (sprites and tone mapping)"),
+    ]
+    out(table(rows, title="1. A million-particle fire, stepped and drawn"))
+    cold = {"first": None, "cold": None, "warm": None} if quick else bench_cold_start()
+    figures |= {
+        "cold_first_frame_s": cold["first"],
+        "cold_start_fire_s": cold["cold"],
+        "warm_start_fire_s": cold["warm"],
+    }
+
+    def seconds(value, target=""):
+        return "not measured (--quick)" if value is None else f"{value:7.1f} s{target}"
+
+    rows = [
+        ("command", "python -m motes run fire -o fire.mp4 (240 frames, 1280 x 720)"),
+        ("cold: frame 1", seconds(cold["first"], " (target <= 10)")),
+        ("cold: all", seconds(cold["cold"], " (target <= 25)")),
+        ("warm: all", seconds(cold["warm"])),
+    ]
+    out()
+    out(table(rows, title="2. The first run: an empty kernel cache"))
+    return figures
+
+
+def main(argv: list[str] | None = None) -> dict:
+    return benchmark_main(
+        argv,
+        prog="python -m benchmarks.interactive",
+        doc=__doc__,
+        quick_help="20,000 particles, no cold start",
+        run=lambda quick: run(quick=quick),
+    )
+
+
+if __name__ == "__main__":
+    main()
