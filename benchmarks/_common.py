@@ -72,8 +72,9 @@ class OtherLoad:
     A busy machine delays the threads of parallel kernels (a kernel waits for its
     slowest thread, and a thread that lost its core waits a whole scheduler time
     slice), so the figures are reported with this. It is the machine's busy time from
-    ``/proc/stat`` (including time stolen by a hypervisor) minus this process's own CPU
-    time, over the wall time. NaN where ``/proc/stat`` does not exist.
+    ``/proc/stat`` (including time stolen by a hypervisor) minus the CPU time of this
+    process and of the children it waited for (a benchmark's own ``motes`` runs), over
+    the wall time. NaN where ``/proc/stat`` does not exist.
     """
 
     def __init__(self):
@@ -88,7 +89,8 @@ class OtherLoad:
             return None
         busy = sum(ticks[:8]) - ticks[3] - ticks[4]  # all but idle and iowait
         own = os.times()
-        return busy / os.sysconf("SC_CLK_TCK"), own.user + own.system, time.perf_counter()
+        spent = own.user + own.system + own.children_user + own.children_system
+        return busy / os.sysconf("SC_CLK_TCK"), spent, time.perf_counter()
 
     def cores(self) -> float:
         end = self._sample()

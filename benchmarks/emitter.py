@@ -443,7 +443,9 @@ class _Clock:
 
 
 # -- the motes fire ---------------------------------------------------------------------
-def fire_system(live: int, *, seed: int = 1, turbulence: bool = True) -> motes.ParticleSystem:
+def fire_system(
+    live: int, *, seed: int = 1, turbulence: bool = True, size: float = 1.0
+) -> motes.ParticleSystem:
     """The demo fire with its birth rate set to hold ``live`` particles, pre-filled.
 
     Births balance deaths when ``rate = live / mean lifetime``. The store is filled with
@@ -454,7 +456,11 @@ def fire_system(live: int, *, seed: int = 1, turbulence: bool = True) -> motes.P
     per_frame = live / (mean_lifetime * FPS)
     # Headroom for the count's fluctuation about ``live`` (the rate has a variance).
     system = build_fire(
-        capacity=int(1.25 * live) + 256, rate=per_frame, seed=seed, turbulence=turbulence
+        capacity=int(1.25 * live) + 256,
+        rate=per_frame,
+        seed=seed,
+        turbulence=turbulence,
+        size=size,
     )
     prefill(system, live)
     return system

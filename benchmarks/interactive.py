@@ -8,13 +8,15 @@ Run from the repository root::
                                                                # no cold start
 
 - **frame**: the demo fire (:func:`motes.demo.build_fire`) held at 1,000,000 live
-  particles (:func:`benchmarks.emitter.fire_system`), one step of 1/60 s and its frame
+  particles (:func:`benchmarks.emitter.fire_system`), their radii scaled by
+  :data:`SIZE` (about 3 px across: ``fire_1m_sprite_px``), one step of 1/60 s and its frame
   drawn as additive sprites at 1280 x 720 from the ``fire`` scene's camera, tone mapped
   to 8 bits: ``fire_1m_frame_ms`` (target <= 33, 30 frames a second), and the two parts
   timed alone in the same run, ``fire_1m_step_ms`` (target <= 18) and
-  ``fire_1m_draw_ms`` (the sprites' target, ``additive_1m_ms`` of
-  ``benchmarks.render``, is <= 15 for the splat of a million sprites of 2.5-3.7 px;
-  these are larger and the frame is tone mapped).
+  ``fire_1m_draw_ms`` (the sprites' own target, ``additive_1m_ms`` of
+  ``benchmarks.render``, is <= 15 for the splat of a million sprites of 2.5-3.7 px
+  over the whole frame; here they crowd into the flame, and the frame is cleared,
+  filled and tone mapped too).
 - **cold start**: ``python -m motes run fire -o fire.mp4`` in a fresh process with an
   empty kernel cache (``NUMBA_CACHE_DIR`` set to a new folder): seconds until its
   progress line for frame 1 (``cold_first_frame_s``, target <= 10) and until it exits
@@ -35,6 +37,8 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 from motes import Camera, Renderer, SpriteStyle
 
 from ._common import benchmark_main, machine, table, time_calls
@@ -43,14 +47,21 @@ from .emitter import fire_system
 WIDTH, HEIGHT = 1280, 720
 #: The demo fire's step [s] (its birth rate is per frame of 1/60 s).
 DT = 1.0 / 60.0
+#: Scale of the demo fire's particle radii at a million: sprites about 3 px across from
+#: the scene camera, as the 1M additive sprites of ``benchmarks.render`` (a fire of
+#: 14,000 particles 5 to 40 px across, held at a million, would be one white blur).
+SIZE = 0.12
 #: A progress line of ``motes run`` for frame 1 (``fire [###...] 1/240 ...``).
 FIRST_FRAME = re.compile(r"\s1/\d+\s")
 
 
 def bench_frame(live: int, repeat: int) -> dict:
     """Step plus draw of the fire held at ``live`` particles, and each part alone."""
-    system = fire_system(live)
+    system = fire_system(live, size=SIZE)
     camera = Camera((0.0, 1.1, 3.6), (0.0, 0.9, 0.0), fov=40, resolution=(WIDTH, HEIGHT))
+    state = system.particle_state()
+    depth = camera.to_view(state.positions.T)[:, 2]
+    diameter = 2.0 * state.radius * camera.pixels_per_metre(np.maximum(depth, 1e-3))
     renderer = Renderer(camera, supersample=1)
     drawn = [(system, SpriteStyle(blend="additive"))]
 
@@ -61,7 +72,13 @@ def bench_frame(live: int, repeat: int) -> dict:
     both = time_calls(frame, repeat=repeat, warmup=2)
     step = time_calls(lambda: system.step(DT), repeat=repeat, warmup=1)
     draw = time_calls(lambda: renderer.render(drawn), repeat=repeat, warmup=1)
-    return {"frame": both, "step": step, "draw": draw, "live": len(system)}
+    return {
+        "frame": both,
+        "step": step,
+        "draw": draw,
+        "live": len(system),
+        "diameter_px": float(np.median(diameter)),
+    }
 
 
 def run_fire(cache: Path, out: Path) -> tuple[float | None, float]:
@@ -112,10 +129,12 @@ def run(*, quick: bool, out=print) -> dict:
         "fire_1m_step_ms": 1e3 * f["step"].best,
         "fire_1m_draw_ms": 1e3 * f["draw"].best,
         "fire_1m_live": f["live"],
+        "fire_1m_sprite_px": f["diameter_px"],
     }
     frame_ms, median_ms = 1e3 * f["frame"].best, 1e3 * f["frame"].median
     rows = [
         ("fire", f"{live:,} live particles (after timing: {f['live']:,}), {WIDTH} x {HEIGHT}"),
+        ("sprites", f"{f['diameter_px']:.1f} px across (median; radii x {SIZE} of the demo's)"),
         ("step + draw", f"{frame_ms:9.2f} ms (median {median_ms:.2f}; target <= 33)"),
         ("step alone", f"{1e3 * f['step'].best:9.2f} ms (target <= 18)"),
         ("draw alone", f"{1e3 * f['draw'].best:9.2f} ms (sprites and tone mapping)"),
