@@ -45,6 +45,10 @@ def test_gradient_background_blends_rows_linearly():
     Background((1.0, 0.0, 0.0), (0.0, 0.0, 1.0)).fill(frame)
     assert_allclose(frame.color[:, 0, 0], [0.875, 0.625, 0.375, 0.125])
     assert_allclose(frame.color[:, 2, 2], [0.125, 0.375, 0.625, 0.875])
+    wide = Frame(37, 4)  # copied across in doubling blocks: an odd width too
+    Background((1.0, 0.0, 0.0), (0.0, 0.0, 1.0)).fill(wide)
+    assert (wide.color == wide.color[:, :1, :]).all()
+    assert_allclose(wide.color[:, 0, 0], [0.875, 0.625, 0.375, 0.125])
 
 
 def test_tonemap_rejects_bad_options():

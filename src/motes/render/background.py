@@ -26,4 +26,12 @@ class Background:
         """Write the background into ``frame.color`` (every pixel)."""
         t = (np.arange(frame.height) + 0.5) / frame.height
         rows = (1 - t)[:, None] * self.top + t[:, None] * self.bottom
-        frame.color[:] = rows[:, None, :].astype(np.float32)
+        color = frame.color
+        color[:, 0, :] = rows
+        # Copied across in doubling blocks: a broadcast of (h, 1, 3) over the width moves
+        # three floats at a time and took 5x longer at 1280 x 720.
+        done, width = 1, color.shape[1]
+        while done < width:
+            step = min(done, width - done)
+            color[:, done : done + step, :] = color[:, :step, :]
+            done += step
