@@ -21,6 +21,7 @@ from motes.view.packet import (
     padded,
     quantization_error,
     quantize,
+    size_classes,
 )  # fmt: skip
 from motes.view.params import parameters, save_scene
 from motes.view.sources import LiveSource
@@ -147,6 +148,37 @@ def test_a_faint_flame_is_shown_as_its_brightest_would_be_at_full_light():
     bright, faint = shown(1.0), shown(0.08)
     assert len(faint.offsets) == len(bright.offsets) == 2
     assert np.abs(faint.colors.astype(int) - bright.colors).max() <= 1
+
+
+def test_particles_of_many_sizes_are_sent_in_size_classes():
+    """Radii from 1 to 10 cm: a few clouds, each at the size of its class, every
+    particle in exactly one, of the class its radius falls in."""
+    rng = np.random.default_rng(3)
+    n = 5000
+    radius = np.exp(rng.uniform(np.log(0.01), np.log(0.1), n))
+    positions = rng.uniform(-1, 1, (3, n))
+    color = np.ones((4, n), np.float32)
+    state = ParticleState(np.arange(n, dtype=np.int64), positions, np.zeros((3, n)), radius,
+                          {"color": Field(color)})  # fmt: skip
+    shown = packet_of([("system.smoke", [(state, SimpleNamespace(blend="alpha"))], [])], None,
+                      index=1, time=0.0).points  # fmt: skip
+    edges, sizes = size_classes(radius)
+    assert len(sizes) == 4 and list(shown) == ["system.smoke/0"] + [
+        f"system.smoke/0s{c}" for c in (1, 2, 3)
+    ]
+    assert sizes == sorted(sizes) and 0.02 < sizes[0] < sizes[-1] < 0.2
+    classes = np.searchsorted(edges, radius.astype(np.float32), side="right")
+    sent = []
+    for c, points in enumerate(shown.values()):
+        assert points.size == pytest.approx(sizes[c])
+        decoded = dequantize(points.origin, points.offsets)
+        expected = positions[:, classes == c].T  # in the particles' order
+        assert np.abs(decoded - expected).max() <= quantization_error(points.offsets)
+        sent.append(len(decoded))
+    assert sum(sent) == n
+    # one size when the radii hardly differ
+    assert len(size_classes(np.full(100, 0.05))[1]) == 1
+    assert size_classes(np.full(100, 0.05))[1][0] == pytest.approx(0.1)
 
 
 def test_a_liquid_drawn_as_water_shows_its_particles_in_its_tint():

@@ -48,8 +48,14 @@ VOLUME_POINTS = 200_000
 #: A moving mesh of more triangles is sent as points at its vertices (a flock of 120,000
 #: birds is 1.4 M triangles, 50 MB a frame as a mesh), at most this many.
 MESH_FACES_MAX = 200_000
-#: Radii a system's point size is the median of, at most.
+#: Radii a system's point sizes are read from, at most.
 SIZE_SAMPLE = 4096
+#: Point sizes a system is drawn in, at most: its particles are sorted by radius into
+#: classes each spanning at most a factor 2 (when that many do) between the 5th and 95th
+#: percentiles of its radii, each class one cloud of its own size.
+SIZE_CLASSES = 4
+#: Radii spread less than this (95th over 5th percentile) are drawn in one size.
+SIZE_SPREAD = 1.5
 
 
 def quantize(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -151,9 +157,10 @@ def packet_of(parts, camera, *, index: int, time: float, stride: int = 1) -> Fra
         for k, (item, style) in enumerate(particles):
             state = as_state(item)
             count += state.count
-            points = _points_of(state, style, stride) if state.count else None
-            if points is not None:
-                packet.points[f"{path}/{k}"] = points
+            classes = _points_of(state, style, stride) if state.count else []
+            for c, points in enumerate(classes):
+                if points is not None:  # a size class drawn as its own cloud
+                    packet.points[f"{path}/{k}" + (f"s{c}" if c else "")] = points
         for k, obj in enumerate(objects):
             name = f"{path}/shape{k}"
             if isinstance(obj, geometry.Spheres):
@@ -221,8 +228,10 @@ def _srgb8(linear: np.ndarray) -> np.ndarray:
 DIM_LIGHT = 0.1
 
 
-def _points_of(state, style, stride: int) -> Points | None:
-    """A system's particles as points (None if none is shown). Points are opaque:
+def _points_of(state, style, stride: int) -> list[Points | None]:
+    """A system's particles as points, one :class:`Points` per size class
+    (:func:`size_classes`; None for a class none of whose particles is shown). Points
+    are opaque:
     alpha-blended particles show their colour; additive ones (light) show their hue at a
     brightness that falls with their light (over the system's brightest, when that is
     below 1) only down to half, and the dimmest are left out (:data:`DIM_LIGHT`). Packed
@@ -243,14 +252,19 @@ def _points_of(state, style, stride: int) -> Points | None:
         kernels.brightest(color, stride, intensity, peaks)
         if 0.0 < peaks.max() < 1.0:
             intensity /= float(peaks.max())  # the brightest particle gives 1
-    counts = np.zeros(blocks, np.int64)
+    radius = np.ascontiguousarray(state.radius, np.float32)
+    edges, sizes = size_classes(radius)
+    counts = np.zeros((blocks, len(sizes)), np.int64)
     low, high = np.empty((blocks, 3)), np.empty((blocks, 3))
-    args = (positions, color, stride, mode, intensity, DIM_LIGHT)
+    args = (positions, color, radius, edges, stride, mode, intensity, DIM_LIGHT)
     kernels.count_shown(*args, counts, low, high)
-    total = int(counts.sum())
+    per_class = counts.sum(axis=0)
+    total = int(per_class.sum())
     if total == 0:
-        return None
-    first = np.concatenate(([0], np.cumsum(counts)[:-1]))
+        return []
+    # Class k's rows start after the classes before it; within it, block by block.
+    starts = np.concatenate(([0], np.cumsum(per_class)[:-1]))
+    first = starts + np.cumsum(counts, axis=0) - counts
     low, high = low.min(axis=0), high.max(axis=0)
     origin = 0.5 * (low + high)
     offsets = np.empty((total, 3), np.float32)
@@ -258,7 +272,10 @@ def _points_of(state, style, stride: int) -> Points | None:
     kernels.pack(*args, first, origin, _SRGB8, offsets, colors)
     if float(np.max(high - low)) / 2.0 < FLOAT16_MAX:
         offsets = offsets.astype(np.float16)
-    return Points(origin, offsets, colors, _diameter(state.radius))
+    return [
+        Points(origin, offsets[a : a + n], colors[a : a + n], size) if n else None
+        for a, n, size in zip(starts, per_class, sizes, strict=True)
+    ]
 
 
 def _sphere_points(spheres: geometry.Spheres, stride: int) -> Points:
@@ -279,10 +296,34 @@ def _water_points(water: Water, stride: int) -> Points:
 def _diameter(radius) -> float:
     """One point size for a system: twice its median radius [m] (1 cm if none), the
     median of at most :data:`SIZE_SAMPLE` radii evenly spaced through the system."""
-    radius = np.asarray(radius)
-    radius = radius[:: max(1, -(-radius.size // SIZE_SAMPLE))]
+    radius = _size_sample(radius)
     size = 2.0 * float(np.median(radius)) if radius.size else 0.0
     return size if np.isfinite(size) and size > 0 else 0.01
+
+
+def _size_sample(radius) -> np.ndarray:
+    """At most :data:`SIZE_SAMPLE` of ``radius``, evenly spaced through it, finite."""
+    radius = np.asarray(radius)
+    radius = radius[:: max(1, -(-radius.size // SIZE_SAMPLE))]
+    return radius[np.isfinite(radius)]
+
+
+def size_classes(radius) -> tuple[np.ndarray, list[float]]:
+    """``(edges (k - 1,) float32 [m], diameters [m] of the k classes)`` a system's
+    particles of ``radius`` (n,) are drawn in: a particle's class is the number of edges
+    its radius reaches. Radii spread less than :data:`SIZE_SPREAD` (95th over 5th
+    percentile of a sample) make one class of twice the median; wider ones up to
+    :data:`SIZE_CLASSES` classes of equal ratio between those percentiles, each drawn at
+    its geometric middle (those beyond the percentiles join the end classes)."""
+    sample = _size_sample(radius)
+    if sample.size:
+        lo, hi = (float(x) for x in np.percentile(sample, [5.0, 95.0]))
+        if lo > 0.0 and hi >= SIZE_SPREAD * lo:
+            k = min(SIZE_CLASSES, max(2, math.ceil(math.log2(hi / lo))))
+            ratio = (hi / lo) ** (1.0 / k)
+            edges = np.array([lo * ratio**j for j in range(1, k)], np.float32)
+            return edges, [2.0 * lo * ratio ** (j + 0.5) for j in range(k)]
+    return np.zeros(0, np.float32), [_diameter(radius)]
 
 
 def _mesh_of(triangles: geometry.TriangleSet) -> Mesh:

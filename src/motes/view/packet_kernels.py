@@ -3,10 +3,12 @@ particles in two passes over blocks, on every core (NumPy took 110 ms a frame at
 twice the fire's step).
 
 Every ``stride``-th particle is taken (``m = ceil(n / stride)`` of them); the first
-pass counts the particles each block shows and their bounding box, the second writes
-the shown ones' offsets from the box's centre and their 8-bit sRGB colours, each block
-at the place the counts before it give, so the output keeps the particles' order and
-does not depend on the thread count.
+pass counts the particles each block shows in each size class (a particle's class is
+the number of ``edges`` its radius reaches) and their bounding box, the second writes
+the shown ones' offsets from the box's centre and their 8-bit sRGB colours, the classes
+one after the other and within a class each block at the place the counts before it
+give, so the output keeps the particles' order within a class and does not depend on
+the thread count.
 
 ``mode`` says how colours are made: :data:`WHITE` (no colour field), :data:`OPAQUE`
 (the colour as it is) or :data:`LIGHT` (additive: the hue at a brightness falling with
@@ -49,6 +51,17 @@ def _light(color, p, intensity):
 
 
 @device
+def _size_class(radius, edges, p):
+    """How many of the ascending ``edges`` [m] particle ``p``'s radius reaches."""
+    r = radius[p]
+    k = 0
+    for e in range(edges.shape[0]):
+        if r >= edges[e]:
+            k += 1
+    return k
+
+
+@device
 def _shown(color, p, mode, intensity, dim):
     if mode != LIGHT:
         return True
@@ -68,41 +81,46 @@ def brightest(color, stride, intensity, peaks):
 
 
 @parallel_kernel
-def count_shown(positions, color, stride, mode, intensity, dim, counts, low, high):
-    """Per block of the taken particles: ``counts[b]`` shown, their box ``low[b]``,
-    ``high[b]`` (3,) (±:data:`FAR` for an empty block)."""
+def count_shown(positions, color, radius, edges, stride, mode, intensity, dim, counts, low,
+                high):  # fmt: skip
+    """Per block of the taken particles: ``counts[b, k]`` shown of size class ``k``
+    (``counts`` (blocks, len(edges) + 1)), their box ``low[b]``, ``high[b]`` (3,)
+    (±:data:`FAR` for an empty block)."""
     m = (positions.shape[1] + stride - 1) // stride
     for b in prange(block_count(m)):
         start, stop = b * BLOCK, min(m, (b + 1) * BLOCK)
-        count = 0
         lo = np.full(3, FAR)  # finite: the kernels' fast math assumes no infinities
         hi = np.full(3, -FAR)
         for q in range(start, stop):
             p = q * stride
             if _shown(color, p, mode, intensity, dim):
-                count += 1
+                counts[b, _size_class(radius, edges, p)] += 1
                 for c in range(3):
                     x = np.float64(positions[c, p])
                     lo[c] = min(lo[c], x)
                     hi[c] = max(hi[c], x)
-        counts[b] = count
         low[b] = lo
         high[b] = hi
 
 
 @parallel_kernel
-def pack(positions, color, stride, mode, intensity, dim, first, origin, table, offsets, rgb):
+def pack(positions, color, radius, edges, stride, mode, intensity, dim, first, origin, table,
+         offsets, rgb):  # fmt: skip
     """The shown particles' ``offsets`` (k, 3) float32 from ``origin`` (3,) and ``rgb``
-    (k, 3) uint8, block ``b`` from row ``first[b]``; ``table``: :func:`srgb8_table`."""
+    (k, 3) uint8, block ``b``'s particles of size class ``c`` from row ``first[b, c]``;
+    ``table``: :func:`srgb8_table`."""
     m = (positions.shape[1] + stride - 1) // stride
     top = table.shape[0] - 1
     for b in prange(block_count(m)):
         start, stop = b * BLOCK, min(m, (b + 1) * BLOCK)
-        row = first[b]
+        rows = first[b].copy()
         for q in range(start, stop):
             p = q * stride
             if not _shown(color, p, mode, intensity, dim):
                 continue
+            k = _size_class(radius, edges, p)
+            row = rows[k]
+            rows[k] += 1
             for c in range(3):
                 offsets[row, c] = np.float64(positions[c, p]) - origin[c]
             if mode == WHITE:
@@ -116,4 +134,3 @@ def pack(positions, color, stride, mode, intensity, dim, first, origin, table, o
             rgb[row, 0] = table[int(min(max(r, 0.0), 1.0) * top + 0.5)]
             rgb[row, 1] = table[int(min(max(g, 0.0), 1.0) * top + 0.5)]
             rgb[row, 2] = table[int(min(max(v, 0.0), 1.0) * top + 0.5)]
-            row += 1
