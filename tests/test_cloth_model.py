@@ -90,6 +90,19 @@ def test_stepping_reads_the_model_and_never_rebuilds_it(make):
     assert body.model is not model and body.forces[-1] is drag and drag not in model.forces
 
 
+def test_retuning_takes_new_springs_and_damping_over_the_same_state():
+    cloth = Cloth.grid(8, 8, structural=mo.SpringFamily(200.0, 0.2))
+    cloth.step(1 / 60)
+    stiffer = Cloth.grid(8, 8, structural=mo.SpringFamily(900.0, 0.3), air_damping=0.5)
+    position = cloth.position.copy()
+    cloth.retune(stiffer.model)
+    assert cloth.model.structural.stiffness == 900.0 and cloth.model.air_damping == 0.5
+    assert cloth.model.vertex_mass is not stiffer.model.vertex_mass  # masses kept
+    assert_array_equal(cloth.position, position)
+    with pytest.raises(ValueError, match="other vertices or faces"):
+        cloth.retune(Cloth.grid(9, 7).model)  # 63 vertices, not 64
+
+
 def test_a_state_of_another_size_is_refused():
     cloth, small = flag(), Cloth.grid(3, 3)
     with pytest.raises(ValueError, match="state must hold this cloth's 80 vertices, got 9"):

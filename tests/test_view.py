@@ -352,6 +352,50 @@ def test_a_liquids_and_a_flocks_live_values_act_on_them_from_the_next_step(tmp_p
     assert water.fluid.model.spacing == 0.05
 
 
+CLOTH = """\
+[scene]
+duration = 1.0
+fps = 30
+
+[[body]]
+name = "cloth"
+type = "cloth"
+grid = [12, 12]
+structural = [200, 0.2]
+air_damping = 0.1
+pin_rows = [-1]
+"""
+
+
+def test_a_cloths_springs_and_gravity_act_live_over_its_state(tmp_path):
+    path = tmp_path / "cloth.toml"
+    path.write_text(CLOTH)
+    found = {p.key: p for p in parameters(CLOTH)}
+    assert found["body.cloth.structural"].live and found["body.cloth.air_damping"].live
+    assert not found["body.cloth.grid"].live
+    source = LiveSource(path)
+    source.restart()
+    for _ in range(5):
+        source.advance()
+    cloth = source.scene.bodies["cloth"].cloth
+    before = cloth.position.copy()
+    values = {"body.cloth.structural": [800.0, 0.5], "body.cloth.air_damping": 0.4}
+    assert source.set_values(values) == []
+    assert source.scene.bodies["cloth"].cloth is cloth
+    model = cloth.model
+    assert (model.structural.stiffness, model.structural.damping) == (800.0, 0.5)
+    assert model.air_damping == 0.4 and model.springs.stiffness.max() == 800.0
+    np.testing.assert_array_equal(cloth.position, before)  # nothing reset
+    source.advance()
+    assert not np.array_equal(cloth.position, before)  # it goes on
+    assert source.set_values({"body.cloth.grid": [10, 10]}) == ["body.cloth.grid"]
+    # while the new mesh waits for the restart, the running cloth keeps its values
+    assert source.set_values({"body.cloth.air_damping": 0.2}) == []
+    assert cloth.model.air_damping == 0.4 and cloth.n == 144
+    source.restart()
+    assert source.scene.bodies["cloth"].cloth.model.air_damping == 0.2
+
+
 def test_a_value_out_of_range_changes_nothing(scene_file):
     source = LiveSource(scene_file)
     source.restart()

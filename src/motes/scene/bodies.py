@@ -140,6 +140,7 @@ LIVE_KEYS: dict[str, tuple[str, ...]] = {
         "max_dt",
         "force",
     ),
+    "cloth": ("structural", "shear", "bending", "gravity", "air_damping", "force"),
     "flock": (
         "separation",
         "alignment",

@@ -103,6 +103,13 @@ class ClothBody(Body):
         self._start = cloth.position.copy()
         self._last_good = cloth.position.copy()
 
+    def take_values(self, fresh: ClothBody) -> None:
+        """Spring families, gravity, air damping and forces of ``fresh`` (see
+        ``LIVE_KEYS``), over this cloth's state and pins (:meth:`Cloth.retune`); nothing
+        while a change of its mesh waits for the restart."""
+        if self.cloth.fits(fresh.cloth.model):
+            self.cloth.retune(fresh.cloth.model)
+
     def step(self, dt: float) -> None:
         if self.diverged_at is not None:
             return
