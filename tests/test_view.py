@@ -396,6 +396,49 @@ def test_a_cloths_springs_and_gravity_act_live_over_its_state(tmp_path):
     assert source.scene.bodies["cloth"].cloth.model.air_damping == 0.2
 
 
+GRID = """\
+[scene]
+duration = 1.0
+fps = 30
+
+[[body]]
+name = "smoke"
+type = "grid_fluid"
+resolution = [16, 24]
+cell_size = 0.05
+vorticity = 0.5
+  [body.buoyancy]
+  density_weight = 0.0
+  heat_weight = 0.01
+  [[body.source]]
+  center = [0.4, 0.2, 0.0]
+  radius = 0.1
+  temperature = 600.0
+"""
+
+
+def test_a_grid_fluids_forces_act_live_over_its_fields(tmp_path):
+    path = tmp_path / "grid.toml"
+    path.write_text(GRID)
+    found = {p.key: p for p in parameters(GRID)}
+    assert found["body.smoke.vorticity"].live and found["body.smoke.buoyancy.heat_weight"].live
+    assert not found["body.smoke.cell_size"].live
+    assert not found["body.smoke.source.0.temperature"].live
+    source = LiveSource(path)
+    source.restart()
+    for _ in range(4):
+        source.advance()
+    fluid = source.scene.bodies["smoke"].fluid
+    density = fluid.density.copy()
+    values = {"body.smoke.vorticity": 2.0, "body.smoke.buoyancy.heat_weight": 0.05}
+    assert source.set_values(values) == []
+    assert source.scene.bodies["smoke"].fluid is fluid
+    assert fluid.vorticity == 2.0 and fluid.buoyancy.heat_weight == 0.05
+    np.testing.assert_array_equal(fluid.density, density)  # nothing reset
+    source.advance()
+    assert fluid.time > 4 / 30
+
+
 def test_a_value_out_of_range_changes_nothing(scene_file):
     source = LiveSource(scene_file)
     source.restart()

@@ -49,6 +49,14 @@ class GridFluidBody(Body):
         self.pending = pending  # [(path, system name, options)] until link()
         self.max_dt = max_dt
 
+    def take_values(self, fresh: GridFluidBody) -> None:
+        """Viscosity, vorticity confinement, buoyancy, dissipation and the largest step
+        of ``fresh`` (see ``LIVE_KEYS``), over this fluid's velocity, density and
+        temperature; its grid, walls and sources are kept."""
+        for name in ("viscosity", "vorticity", "buoyancy", "dissipation"):
+            setattr(self.fluid, name, getattr(fresh.fluid, name))
+        self.max_dt = fresh.max_dt
+
     def step(self, dt: float) -> None:
         substeps = max(1, -int(-dt // self.max_dt))
         for _ in range(substeps):

@@ -7,7 +7,8 @@ and render settings are left out: the browser has its own camera and draws witho
 them. A parameter is *live* when changing it can act on the running simulation from
 the next step: those of a system's emitters, forces, modifiers, colliders and
 collisions, and a body's :data:`~motes.scene.bodies.LIVE_KEYS` (a liquid's solver
-settings and forces, a cloth's springs and drag, a flock's rules and limits). The rest
+settings and forces, a cloth's springs and drag, a grid fluid's forces and dissipation,
+a flock's rules and limits). The rest
 (a scene's duration or seed, a system's capacity, hair's or a rigid world's values)
 act when the scene restarts.
 """
