@@ -99,8 +99,21 @@ def test_retuning_takes_new_springs_and_damping_over_the_same_state():
     assert cloth.model.structural.stiffness == 900.0 and cloth.model.air_damping == 0.5
     assert cloth.model.vertex_mass is not stiffer.model.vertex_mass  # masses kept
     assert_array_equal(cloth.position, position)
-    with pytest.raises(ValueError, match="other vertices or faces"):
+    with pytest.raises(ValueError, match="other vertices or topology"):
         cloth.retune(Cloth.grid(9, 7).model)  # 63 vertices, not 64
+
+
+def test_retuning_hair_takes_new_springs_over_the_same_strands():
+    head = Head((0.0, 1.6, 0.0), 0.1)
+    hair = Hair(head, strands=20, particles=6, seed=3, stretch=(500.0, 0.02))
+    hair.step(1 / 60)
+    position = hair.position.copy()
+    stiffer = Hair(head, strands=20, particles=6, seed=3, stretch=(900.0, 0.02), air_damping=3.0)
+    hair.retune(stiffer.model)
+    assert hair.model.springs is stiffer.model.springs and hair.model.air_damping == 3.0
+    assert_array_equal(hair.position, position)
+    with pytest.raises(ValueError, match="other particles or topology"):
+        hair.retune(Hair(head, strands=20, particles=6, seed=4).model)  # other roots
 
 
 def test_a_state_of_another_size_is_refused():

@@ -396,6 +396,40 @@ def test_a_cloths_springs_and_gravity_act_live_over_its_state(tmp_path):
     assert source.scene.bodies["cloth"].cloth.model.air_damping == 0.2
 
 
+HAIR = """\
+[scene]
+duration = 1.0
+fps = 30
+
+[[body]]
+name = "hair"
+type = "hair"
+strands = 30
+particles = 6
+stretch = [500.0, 0.02]
+air_damping = 1.0
+"""
+
+
+def test_hairs_springs_act_live_over_its_strands(tmp_path):
+    path = tmp_path / "hair.toml"
+    path.write_text(HAIR)
+    found = {p.key: p for p in parameters(HAIR)}
+    assert found["body.hair.stretch"].live and not found["body.hair.strands"].live
+    source = LiveSource(path)
+    source.restart()
+    for _ in range(3):
+        source.advance()
+    hair = source.scene.bodies["hair"].hair
+    springs, position = hair.model.springs, hair.position.copy()
+    assert source.set_values({"body.hair.stretch": [900.0, 0.05]}) == []
+    assert hair.model.springs is not springs and hair.model.air_damping == 1.0
+    np.testing.assert_array_equal(hair.position, position)
+    assert source.set_values({"body.hair.strands": 40}) == ["body.hair.strands"]
+    assert source.set_values({"body.hair.air_damping": 2.0}) == []
+    assert hair.model.air_damping == 1.0  # new strands wait for the restart: so does this
+
+
 GRID = """\
 [scene]
 duration = 1.0

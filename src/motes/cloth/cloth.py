@@ -19,8 +19,6 @@ Not handled: self-collision (the cloth passes through itself).
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from .. import _memory
@@ -296,16 +294,6 @@ class Cloth(MassSpringFacade):
         """Whether ``model`` has this cloth's vertex count and faces (:meth:`retune`)."""
         own = self._model
         return model.vertex_count == own.vertex_count and np.array_equal(model.faces, own.faces)
-
-    def retune(self, model: ClothModel) -> None:
-        """Take :data:`RETUNABLE` values from ``model`` (a cloth of the same vertices
-        and faces built with new values) from the next step on, keeping this cloth's
-        state, pins and handles: a spring family made stiffer, a heavier gravity, more
-        air damping. ``model``'s springs must join the same vertices as these, but for
-        families it turns on or off."""
-        if not self.fits(model):
-            raise ValueError("model is of other vertices or faces than this cloth")
-        self._model = replace(self._model, **{k: getattr(model, k) for k in self.RETUNABLE})
 
     def add_springs(self, pairs, stiffness, damping=0.0, rest_length=None) -> None:
         """Join chosen vertices by springs, from the next step on: a seam stitched shut,

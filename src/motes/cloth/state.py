@@ -8,7 +8,7 @@ A :class:`ClothControl` holds the pins and the moving handles.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -112,6 +112,24 @@ class MassSpringFacade:
 
     _STATE: type = MassSpringState
     _UNITS = "particles"
+    #: Fields of the model :meth:`retune` takes (set by each subclass).
+    RETUNABLE: tuple[str, ...] = ()
+
+    def fits(self, model) -> bool:
+        """Whether ``model`` is of this body's particles and topology (:meth:`retune`)."""
+        raise NotImplementedError
+
+    def retune(self, model) -> None:
+        """Take the model values named by ``RETUNABLE`` from ``model`` (the same body
+        built with new values: stiffer springs, a heavier gravity, more air damping)
+        from the next step on, keeping the state, pins and handles. ``model`` must
+        :meth:`fit`; its springs join the same particles, but for spring families it
+        turns on or off."""
+        if not self.fits(model):
+            raise ValueError(
+                f"model is of other {self._UNITS} or topology than this {type(self).__name__}"
+            )
+        self._model = replace(self._model, **{k: getattr(model, k) for k in self.RETUNABLE})
 
     def _replace_state(self, value) -> None:
         if not isinstance(value, self._STATE):

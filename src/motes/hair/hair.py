@@ -160,6 +160,19 @@ class Hair(MassSpringFacade):
         """The follicles (:class:`~motes.hair.state.HairControl`)."""
         return self._control
 
+    #: Model values :meth:`retune` may replace: none of them changes the strands, the
+    #: masses or what the hair collides with.
+    RETUNABLE = ("springs", "air_damping", "gravity", "forces")
+
+    def fits(self, model: HairModel) -> bool:
+        """Whether ``model`` has this hair's strands, particles and rest shape."""
+        own = self._model
+        return (
+            model.particle_count == own.particle_count
+            and model.strand_count == own.strand_count
+            and np.array_equal(model.particle_rest_local, own.particle_rest_local)
+        )
+
     def add_force(self, force):
         """Make ``force`` (a :class:`~motes.forces.Force` or ``FieldForce``) act on the
         particles from the next step on; returns it.

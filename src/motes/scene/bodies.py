@@ -141,6 +141,7 @@ LIVE_KEYS: dict[str, tuple[str, ...]] = {
         "force",
     ),
     "cloth": ("structural", "shear", "bending", "gravity", "air_damping", "force"),
+    "hair": ("stretch", "bending", "air_damping", "gravity", "force"),
     "grid_fluid": ("viscosity", "vorticity", "buoyancy", "dissipation", "max_dt"),
     "flock": (
         "separation",

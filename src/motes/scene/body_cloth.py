@@ -328,6 +328,13 @@ class HairBody(Body):
         along = np.tile(np.arange(p - 1) / max(p - 2, 1), hair.strand_count)
         self.widths = width * (1.0 - 0.6 * along)
 
+    def take_values(self, fresh: HairBody) -> None:
+        """Stretch and bending springs, gravity, air damping and forces of ``fresh`` (see
+        ``LIVE_KEYS``), over this hair's state (:meth:`Hair.retune`); nothing while new
+        strands wait for the restart."""
+        if self.hair.fits(fresh.hair.model):
+            self.hair.retune(fresh.hair.model)
+
     def step(self, dt: float) -> None:
         self.hair.step(dt)
 

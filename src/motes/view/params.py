@@ -7,10 +7,9 @@ and render settings are left out: the browser has its own camera and draws witho
 them. A parameter is *live* when changing it can act on the running simulation from
 the next step: those of a system's emitters, forces, modifiers, colliders and
 collisions, and a body's :data:`~motes.scene.bodies.LIVE_KEYS` (a liquid's solver
-settings and forces, a cloth's springs and drag, a grid fluid's forces and dissipation,
-a flock's rules and limits). The rest
-(a scene's duration or seed, a system's capacity, hair's or a rigid world's values)
-act when the scene restarts.
+settings and forces, a cloth's or hair's springs and drag, a grid fluid's forces and
+dissipation, a flock's rules and limits). The rest (a scene's duration or seed, a
+system's capacity, a rigid world's values) act when the scene restarts.
 """
 
 from __future__ import annotations
