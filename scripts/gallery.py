@@ -102,7 +102,7 @@ def write_index(out: Path, rows, scenes) -> None:
     for name in sorted(sections):
         if name in scenes:
             lines += sections[name]
-    (out / "README.md").write_text("\n".join(lines) + "\n")
+    (out / "README.md").write_text("\n".join(lines).rstrip("\n") + "\n")
 
 
 def _sections(index: Path) -> dict[str, list[str]]:
