@@ -299,6 +299,18 @@ def test_a_live_value_acts_from_the_next_step(scene_file):
     assert np.median(after - before[: len(after)]) < -0.5  # ~ -1 m/s per frame, not -0.33
 
 
+def live_scene(tmp_path, text: str, frames: int):
+    """A :class:`LiveSource` of scene file ``text`` run ``frames`` frames, and the file's
+    parameters by key."""
+    path = tmp_path / "live.toml"
+    path.write_text(text)
+    source = LiveSource(path)
+    source.restart()
+    for _ in range(frames):
+        source.advance()
+    return source, {p.key: p for p in parameters(text)}
+
+
 BODIES = """\
 [scene]
 duration = 1.0
@@ -327,15 +339,9 @@ max_speed = 4.0
 
 
 def test_a_liquids_and_a_flocks_live_values_act_on_them_from_the_next_step(tmp_path):
-    path = tmp_path / "bodies.toml"
-    path.write_text(BODIES)
-    found = {p.key: p for p in parameters(BODIES)}
+    source, found = live_scene(tmp_path, BODIES, 3)
     assert found["body.water.viscosity"].live and not found["body.water.spacing"].live
     assert found["body.birds.max_speed"].live and not found["body.birds.count"].live
-    source = LiveSource(path)
-    source.restart()
-    for _ in range(3):
-        source.advance()
     water, birds = source.scene.bodies["water"], source.scene.bodies["birds"]
     held = water.count()
     values = {"body.water.viscosity": 0.2, "body.water.iterations": 6, "body.birds.max_speed": 1.5}
@@ -368,15 +374,9 @@ pin_rows = [-1]
 
 
 def test_a_cloths_springs_and_gravity_act_live_over_its_state(tmp_path):
-    path = tmp_path / "cloth.toml"
-    path.write_text(CLOTH)
-    found = {p.key: p for p in parameters(CLOTH)}
+    source, found = live_scene(tmp_path, CLOTH, 5)
     assert found["body.cloth.structural"].live and found["body.cloth.air_damping"].live
     assert not found["body.cloth.grid"].live
-    source = LiveSource(path)
-    source.restart()
-    for _ in range(5):
-        source.advance()
     cloth = source.scene.bodies["cloth"].cloth
     before = cloth.position.copy()
     values = {"body.cloth.structural": [800.0, 0.5], "body.cloth.air_damping": 0.4}
@@ -412,14 +412,8 @@ air_damping = 1.0
 
 
 def test_hairs_springs_act_live_over_its_strands(tmp_path):
-    path = tmp_path / "hair.toml"
-    path.write_text(HAIR)
-    found = {p.key: p for p in parameters(HAIR)}
+    source, found = live_scene(tmp_path, HAIR, 3)
     assert found["body.hair.stretch"].live and not found["body.hair.strands"].live
-    source = LiveSource(path)
-    source.restart()
-    for _ in range(3):
-        source.advance()
     hair = source.scene.bodies["hair"].hair
     springs, position = hair.model.springs, hair.position.copy()
     assert source.set_values({"body.hair.stretch": [900.0, 0.05]}) == []
@@ -452,16 +446,10 @@ vorticity = 0.5
 
 
 def test_a_grid_fluids_forces_act_live_over_its_fields(tmp_path):
-    path = tmp_path / "grid.toml"
-    path.write_text(GRID)
-    found = {p.key: p for p in parameters(GRID)}
+    source, found = live_scene(tmp_path, GRID, 4)
     assert found["body.smoke.vorticity"].live and found["body.smoke.buoyancy.heat_weight"].live
     assert not found["body.smoke.cell_size"].live
     assert not found["body.smoke.source.0.temperature"].live
-    source = LiveSource(path)
-    source.restart()
-    for _ in range(4):
-        source.advance()
     fluid = source.scene.bodies["smoke"].fluid
     density = fluid.density.copy()
     values = {"body.smoke.vorticity": 2.0, "body.smoke.buoyancy.heat_weight": 0.05}

@@ -5,6 +5,7 @@ To watch a fire, run ``motes run fire`` (the built-in scene ``fire.toml``).
 
 from __future__ import annotations
 
+from . import _validate as check
 from . import colliders, shapes
 from .emit import Emitter, PerFrame, Uniform
 from .forces import CurlNoise, Drag, Gravity
@@ -29,6 +30,7 @@ def build_fire(
     benchmark's fixed-cost system). ``size`` scales the particles' radii (3 to 6 cm
     at birth): a fire of a million particles draws each smaller.
     """
+    size = check.positive("size", size)
     fire = ParticleSystem(capacity=capacity, seed=seed)
     fire.add(
         Emitter(

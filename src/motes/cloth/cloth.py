@@ -289,11 +289,7 @@ class Cloth(MassSpringFacade):
     #: Model values :meth:`retune` may replace: none of them changes the vertices, the
     #: faces, the masses or what the cloth collides with.
     RETUNABLE = ("structural", "shear", "bending", "springs", "gravity", "air_damping", "forces")
-
-    def fits(self, model: ClothModel) -> bool:
-        """Whether ``model`` has this cloth's vertex count and faces (:meth:`retune`)."""
-        own = self._model
-        return model.vertex_count == own.vertex_count and np.array_equal(model.faces, own.faces)
+    SHAPE = ("vertex_count", "faces")
 
     def add_springs(self, pairs, stiffness, damping=0.0, rest_length=None) -> None:
         """Join chosen vertices by springs, from the next step on: a seam stitched shut,

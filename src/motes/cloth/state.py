@@ -114,16 +114,21 @@ class MassSpringFacade:
     _UNITS = "particles"
     #: Fields of the model :meth:`retune` takes (set by each subclass).
     RETUNABLE: tuple[str, ...] = ()
+    #: Fields of the model that say what the body is made of: equal in a model it may
+    #: take values from (set by each subclass).
+    SHAPE: tuple[str, ...] = ()
 
     def fits(self, model) -> bool:
-        """Whether ``model`` is of this body's particles and topology (:meth:`retune`)."""
-        raise NotImplementedError
+        """Whether ``model`` is of this body's particles and topology (its ``SHAPE``
+        fields equal this one's), so that :meth:`retune` may take values from it."""
+        own = self._model
+        return all(np.array_equal(getattr(model, k), getattr(own, k)) for k in self.SHAPE)
 
     def retune(self, model) -> None:
         """Take the model values named by ``RETUNABLE`` from ``model`` (the same body
         built with new values: stiffer springs, a heavier gravity, more air damping)
         from the next step on, keeping the state, pins and handles. ``model`` must
-        :meth:`fit`; its springs join the same particles, but for spring families it
+        :meth:`fits`; its springs join the same particles, but for spring families it
         turns on or off."""
         if not self.fits(model):
             raise ValueError(

@@ -163,15 +163,7 @@ class Hair(MassSpringFacade):
     #: Model values :meth:`retune` may replace: none of them changes the strands, the
     #: masses or what the hair collides with.
     RETUNABLE = ("springs", "air_damping", "gravity", "forces")
-
-    def fits(self, model: HairModel) -> bool:
-        """Whether ``model`` has this hair's strands, particles and rest shape."""
-        own = self._model
-        return (
-            model.particle_count == own.particle_count
-            and model.strand_count == own.strand_count
-            and np.array_equal(model.particle_rest_local, own.particle_rest_local)
-        )
+    SHAPE = ("particle_count", "strand_count", "particle_rest_local")
 
     def add_force(self, force):
         """Make ``force`` (a :class:`~motes.forces.Force` or ``FieldForce``) act on the

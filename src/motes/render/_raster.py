@@ -545,6 +545,15 @@ def _draw_line(lines, s, seg_colors, ox, oy, sw, sh, far, zbuf, cbuf, touched, s
                 touched[j // ss, i // ss] = True
 
 
+@device
+def _tile_box(t, tiles_x, width, height):
+    """First column and row [px] and size (columns, rows) of tile ``t`` of an image
+    ``width`` x ``height`` cut into tiles ``tiles_x`` across (the last ones clipped)."""
+    px0 = (t % tiles_x) * TILE
+    py0 = (t // tiles_x) * TILE
+    return px0, py0, min(TILE, width - px0), min(TILE, height - py0)
+
+
 @serial_kernel
 def _draw_tile(
     cam, pixel_size, ss, t, starts, items, tiles_x, tri_count, tri, tri_face, tri_facing,
@@ -558,10 +567,7 @@ def _draw_tile(
     last = starts[t + 1]
     if first == last:
         return
-    px0 = (t % tiles_x) * TILE
-    py0 = (t // tiles_x) * TILE
-    pw = min(TILE, width - px0)
-    ph = min(TILE, height - py0)
+    px0, py0, pw, ph = _tile_box(t, tiles_x, width, height)
     sw = pw * ss
     sh = ph * ss
     ox = px0 * ss
@@ -710,10 +716,7 @@ def _depth_tile(t, starts, items, tiles_x, tri, far, depth):
     last = starts[t + 1]
     if first == last:
         return
-    px0 = (t % tiles_x) * TILE
-    py0 = (t // tiles_x) * TILE
-    pw = min(TILE, width - px0)
-    ph = min(TILE, height - py0)
+    px0, py0, pw, ph = _tile_box(t, tiles_x, width, height)
     zbuf = np.empty((ph, pw), dtype=np.float32)
     owner = np.empty((ph, pw), dtype=np.int32)
     for y in range(ph):
