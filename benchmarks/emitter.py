@@ -316,8 +316,9 @@ class NumpyFire:
     State is one ``(3, n)`` / ``(4, n)`` / ``(n,)`` array per attribute, copied from the
     system's store. Each step emits with the system's own emitter samplers (motes'
     emission is already vectorised NumPy), then in NumPy: curl noise, gravity and linear
-    drag, semi-implicit Euler, bouncing planes with friction, ageing, boolean-mask
-    compaction of every array, colour and size over life with ``np.interp``.
+    drag, semi-implicit Euler, bouncing planes with friction, ageing, compaction of every
+    array in the system's order (a boolean mask when stable; fancy-indexed moves from the
+    tail into the holes when ``"swap"``), colour and size over life with ``np.interp``.
     """
 
     def __init__(self, system: motes.ParticleSystem, *, seed: int = 1):
@@ -347,6 +348,7 @@ class NumpyFire:
         self.time = system.time
         self.frame = system.frame
         self.count = n
+        self.swap = store.compaction == "swap"
         #: Stage name -> seconds, filled by :meth:`step` when a dict (see stage_breakdown).
         self.timings: dict[str, float] | None = None
 
@@ -374,9 +376,17 @@ class NumpyFire:
         self.time += float(dt)
         self.frame += 1
         if not keep.all():
-            for name, array in a.items():
-                a[name] = array[..., keep]
-            self.count = int(keep.sum())
+            survivors = int(keep.sum())
+            if self.swap:
+                holes = np.flatnonzero(~keep[:survivors])
+                sources = np.flatnonzero(keep[survivors:])[::-1] + survivors
+                for name, array in a.items():
+                    array[..., holes] = array[..., sources]
+                    a[name] = array[..., :survivors]
+            else:
+                for name, array in a.items():
+                    a[name] = array[..., keep]
+            self.count = survivors
         clock.lap("compaction")
         t = a["age"] / a["lifetime"]
         for attribute, curve, multiply in self.curves:

@@ -144,17 +144,24 @@ def test_swap_compaction_moves_few_and_keeps_attributes_together():
     assert_array_equal(store["color"], np.arange(40.0).reshape(10, 4)[ids])
 
 
-@pytest.mark.parametrize("seed", range(5))
-def test_swap_and_stable_compaction_keep_the_same_particles(seed):
+# 40,000 with about half dead moves rows in parallel (holes >= SERIAL_BELOW).
+@pytest.mark.parametrize(("seed", "n"), [(s, 5000) for s in range(4)] + [(4, 40_000)])
+def test_swap_and_stable_compaction_keep_the_same_particles(seed, n):
     rng = np.random.default_rng(seed)
-    keep = rng.random(5000) < rng.random()
+    keep = rng.random(n) < max(rng.random(), 0.3)
     stores = {}
     for mode in ("stable", "swap"):
-        store = ParticleStore(5000, ("size",), compaction=mode)
-        store.spawn(5000)
-        store["size"] = np.arange(5000.0)
+        store = ParticleStore(n, ("size",), compaction=mode)
+        store.spawn(n)
+        store["size"] = np.arange(float(n))
         index = store.compact(keep.copy())
         stores[mode] = (store, index)
+        # Without the index, the same particles in the same order.
+        plain = ParticleStore(n, ("size",), compaction=mode)
+        plain.spawn(n)
+        plain["size"] = np.arange(float(n))
+        assert plain.compact(keep.copy(), index=False) is None
+        assert_array_equal(plain["id"], store["id"])
     stable, swap = stores["stable"][0], stores["swap"][0]
     assert stable.count == swap.count == keep.sum()
     assert_array_equal(np.sort(swap["id"]), stable["id"])

@@ -311,17 +311,21 @@ class ParticleStore:
         """Scratch mask of shape ``(capacity,)``: kernels write False for particles to kill."""
         return self._keep
 
-    def compact(self, keep: np.ndarray | None = None) -> np.ndarray | None:
+    def compact(self, keep: np.ndarray | None = None, *, index: bool = True) -> np.ndarray | None:
         """Remove particles whose ``keep`` flag is False (see ``compaction`` for the order).
 
         Parameters
         ----------
         keep : bool array, shape (count,) or (capacity,), optional
             Defaults to the store's own :attr:`keep` mask.
+        index : bool, optional
+            Build and return ``new_index``; False skips that pass over every particle
+            when nobody holds particle indices.
 
         Returns
         -------
-        new_index : int64 array of shape (old count,), or None when nobody died
+        new_index : int64 array of shape (old count,), or None when nobody died or
+            ``index`` is False
             New index of each old particle, -1 for the dead; modules holding particle
             indices (springs) remap with it.
         """
@@ -329,16 +333,27 @@ class ParticleStore:
         mask = self._keep if keep is None else np.asarray(keep, dtype=np.bool_)
         if mask.shape[0] < n:
             raise ValueError(f"keep must have at least {n} entries, got {mask.shape[0]}")
-        if mask[:n].all():
+        live = mask[:n]
+        survivors = int(np.count_nonzero(live))
+        if survivors == n:
             return None
-        new_index = np.empty(n, dtype=np.int64)
         if self.compaction == "swap":
-            moves = np.empty((2, n), dtype=np.int64)
-            survivors, count = _swap_plan(mask, n, moves, new_index)
+            # Holes below the new count, lowest first, take the survivors above it,
+            # highest first: only about twice as many particles as died are touched.
+            holes = np.flatnonzero(~live[:survivors])
+            sources = np.flatnonzero(live[survivors:])[::-1] + survivors
+            move_rows = _move_rows_parallel if holes.size >= SERIAL_BELOW else _move_rows_serial
             for group in self._groups:
-                _apply_moves(group, moves, count)
+                move_rows(group, sources, holes)
+            new_index = None
+            if index:
+                new_index = np.arange(n, dtype=np.int64)
+                new_index[~live] = -1
+                new_index[sources] = holes
         else:
-            survivors = _stable_index(mask, n, new_index)
+            new_index = np.empty(n, dtype=np.int64) if index else None
+            if index:
+                _stable_index(mask, n, new_index)
             compact_rows = _compact_rows_parallel if n >= SERIAL_BELOW else _compact_rows_serial
             for group in self._groups:
                 compact_rows(group, mask, n)
@@ -397,40 +412,22 @@ def _compact_rows_serial(arrays, keep, n):
             _compact_row(array[c], keep, n)
 
 
-@serial_kernel
-def _swap_plan(keep, n, moves, new_index):
-    """Fill holes from the tail: ``moves[:, k] = (source, destination)``.
+@device
+def _move_row(row, sources, destinations):
+    for k in range(sources.shape[0]):
+        row[destinations[k]] = row[sources[k]]
 
-    Returns (survivors, number of moves); ``new_index`` gets each particle's new index
-    (-1 for the dead). Deterministic: holes are filled lowest first, from the highest
-    surviving index down.
-    """
-    survivors = 0
-    for i in range(n):
-        survivors += keep[i]
-        new_index[i] = i if keep[i] else -1
-    count = 0
-    low = 0
-    high = n - 1
-    while True:
-        while low < survivors and keep[low]:
-            low += 1
-        while high >= survivors and not keep[high]:
-            high -= 1
-        if low >= survivors or high < survivors:
-            break
-        moves[0, count] = high
-        moves[1, count] = low
-        new_index[high] = low
-        count += 1
-        low += 1
-        high -= 1
-    return survivors, count
+
+@parallel_kernel
+def _move_rows_parallel(arrays, sources, destinations):
+    # Sources all lie above the destinations: no move reads a slot another has written.
+    for array in arrays:
+        for c in prange(array.shape[0]):
+            _move_row(array[c], sources, destinations)
 
 
 @serial_kernel
-def _apply_moves(arrays, moves, count):
+def _move_rows_serial(arrays, sources, destinations):
     for array in arrays:
         for c in range(array.shape[0]):
-            for k in range(count):
-                array[c, moves[1, k]] = array[c, moves[0, k]]
+            _move_row(array[c], sources, destinations)

@@ -383,9 +383,10 @@ class ParticleSystem:
             index = np.flatnonzero(~store.keep[:n])
             if index.size:
                 self._emit_event("death", index)
-        new_index = store.compact()
+        holders = [f for f in self.forces if type(f).remap is not Force.remap]
+        new_index = store.compact(index=bool(holders))
         if new_index is not None:
-            for force in self.forces:
+            for force in holders:
                 force.remap(new_index)
 
     def _emit_event(self, kind: str, index: np.ndarray) -> None:

@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from .. import _validate as check
+from .shapes import along
 
 
 def orthonormal_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -42,10 +43,8 @@ class Cone(Direction):
         cos_t = 1 - rng.random(count) * (1 - cos_min)
         sin_t = np.sqrt(np.maximum(0.0, 1 - cos_t**2))
         phi = rng.random(count) * 2 * np.pi
-        return (
-            cos_t[:, None] * self.axis
-            + (sin_t * np.cos(phi))[:, None] * self._u
-            + (sin_t * np.sin(phi))[:, None] * self._v
+        return along(
+            (self.axis, cos_t), (self._u, sin_t * np.cos(phi)), (self._v, sin_t * np.sin(phi))
         )
 
 

@@ -46,6 +46,26 @@ def _directions_from_origin(rng: np.random.Generator, pos: np.ndarray) -> np.nda
     return out
 
 
+def along(*terms: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """``sum(coefficients[:, None] * vector)`` over ``(vector (3,), coefficients (count,))``
+    pairs, shape (count, 3).
+
+    Built as three contiguous rows (the result is the transpose of a (3, count) array,
+    the store's layout): NumPy's broadcasting over a trailing axis of length 3 runs
+    several times slower.
+    """
+    vector, coefficients = terms[0]
+    out = np.outer(vector, coefficients)
+    for vector, coefficients in terms[1:]:
+        out += np.outer(vector, coefficients)
+    return out.T
+
+
+def repeated(vector: np.ndarray, count: int) -> np.ndarray:
+    """``vector`` (3,) repeated ``count`` times, shape (count, 3), laid out as :func:`along`."""
+    return np.repeat(np.asarray(vector, dtype=np.float64)[:, None], count, axis=1).T
+
+
 def _perpendicular_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit vectors ``(e1, e2)`` with ``e1 x e2 = axis`` for a unit ``axis``."""
     # Start from the coordinate axis least aligned with ``axis`` so the projection is
@@ -230,8 +250,8 @@ class Disc(Shape):
         r_in2 = self.inner_radius**2
         r = np.sqrt(r_in2 + rng.random(count) * (self.radius**2 - r_in2))
         theta = _TWO_PI * rng.random(count)
-        pos = np.outer(r * np.cos(theta), self._e1) + np.outer(r * np.sin(theta), self._e2)
-        return pos, np.tile(self.normal, (count, 1))
+        pos = along((self._e1, r * np.cos(theta)), (self._e2, r * np.sin(theta)))
+        return pos, repeated(self.normal, count)
 
     @property
     def bounding_radius(self) -> float:
@@ -287,8 +307,8 @@ class Cone(Shape):
             h = self.height * np.cbrt(rng.random(count))
             rho = self.radius / self.height * h * np.sqrt(rng.random(count))
         theta = _TWO_PI * rng.random(count)
-        radial = np.outer(np.cos(theta), self._e1) + np.outer(np.sin(theta), self._e2)
-        pos = np.outer(h, self.axis) + rho[:, None] * radial
+        radial = along((self._e1, np.cos(theta)), (self._e2, np.sin(theta)))
+        pos = along((self.axis, h)) + rho[:, None] * radial
         if not self.surface:
             return pos, _directions_from_origin(rng, pos)
         slant = np.hypot(self.radius, self.height)
@@ -335,9 +355,9 @@ class Line(Shape):
 
     def _sample(self, rng, count):
         t = rng.random(count)
-        pos = self.start + np.outer(t, self.end - self.start)
+        pos = self.start + along((self.end - self.start, t))
         phi = _TWO_PI * rng.random(count)
-        normals = np.outer(np.cos(phi), self._e1) + np.outer(np.sin(phi), self._e2)
+        normals = along((self._e1, np.cos(phi)), (self._e2, np.sin(phi)))
         return pos, normals
 
     @property
