@@ -241,9 +241,14 @@ def step_kernel(
         one = params[ONE]
         zero = one - one
         retain = one - params[12]
-        dead = 0
-        for block in prange(block_count(n)):
+        # Deaths per block, summed after the loop: a reduction variable in the prange
+        # makes Numba deep-copy every statement that feeds it, each copy with the whole
+        # (inlined) kernel's scope, which tripled the compile time.
+        blocks = block_count(n)
+        dead = np.zeros(blocks, dtype=np.int64)
+        for block in prange(blocks):
             start, stop = block_bounds(block, n)
+            died = 0
             for i in range(start, stop):
                 px = pos[0, i]
                 py = pos[1, i]
@@ -352,8 +357,9 @@ def step_kernel(
                 age[i] = a
                 dies = killed or a >= life[i]
                 keep[i] = not dies
-                dead += dies
-        return dead
+                died += dies
+            dead[block] = died
+        return dead.sum()
 
     return kernel
 

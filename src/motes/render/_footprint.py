@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from .._jit import device, fma
+from .._jit import called, fma
 
 # Footprint kinds.
 POINT = 0  # bilinear tent of the offset from the particle (or its streak)
@@ -62,7 +62,7 @@ SQRT2 = np.float32(math.sqrt(2.0))
 FLOAT_EXPONENT = np.int32(0x7F800000)
 
 
-@device
+@called
 def nonfinite(bits):
     """Whether a float32, given as its int32 bit pattern, is NaN or infinite.
 
@@ -77,7 +77,7 @@ def inverse_softness(softness: float) -> float:
     return 1.0 / softness if softness > 0 else float(HARD)
 
 
-@device
+@called
 def depth_factor(opaque, d, inv_soft):
     """Weight factor of a fragment at depth ``d`` over opaque depth ``opaque`` [m].
 
@@ -89,7 +89,7 @@ def depth_factor(opaque, d, inv_soft):
     return min(max((opaque - d) * inv_soft, ZERO), ONE)
 
 
-@device
+@called
 def footprint_extent(kind, rf):
     """Distance [px] from the particle (or its streak) beyond which its weight is 0."""
     if kind == POINT:
@@ -101,7 +101,7 @@ def footprint_extent(kind, rf):
     return rf * SQRT2  # the rotated square's corners
 
 
-@device
+@called
 def footprint_bounds(kind, sx, sy, tx, ty, rf):
     """Float bounds ``(col0, row0, col1, row1)`` of the pixels a footprint may touch.
 
@@ -117,7 +117,7 @@ def footprint_bounds(kind, sx, sy, tx, ty, rf):
     return c0, r0, c1, r1
 
 
-@device
+@called
 def segment_offset(streak, px, py, sx, sy, segx, segy, inv_seg2):
     """Offset of pixel centre ``(px, py)`` from the nearest point of a streak.
 
@@ -135,7 +135,7 @@ def segment_offset(streak, px, py, sx, sy, segx, segy, inv_seg2):
     return dx + back * segx, dy + back * segy, t
 
 
-@device
+@called
 def profile_weight(kind, dx, dy, rf, inv_rf2):
     """Unit-peak weight of a round footprint at offset ``(dx, dy)`` [px] from its centre."""
     if kind == POINT:
@@ -147,7 +147,7 @@ def profile_weight(kind, dx, dy, rf, inv_rf2):
     return min(max(rf + HALF - np.sqrt(r2), ZERO), ONE)
 
 
-@device
+@called
 def texture_sample(texture, dx, dy, inv_rf, cs, sn):
     """Bilinear RGBA of a texture laid on the square [-R, R]² rotated by the sprite angle.
 
@@ -187,7 +187,7 @@ def texture_sample(texture, dx, dy, inv_rf, cs, sn):
     return out0, out1, out2, out3
 
 
-@device
+@called
 def profile_area(kind, r, streak_length, texture_alpha_mean):
     """Analytic integral [px²] of a unit-peak footprint of radius ``r`` [px].
 
@@ -205,7 +205,7 @@ def profile_area(kind, r, streak_length, texture_alpha_mean):
     return 4.0 * r * r * texture_alpha_mean
 
 
-@device
+@called
 def footprint_sum(kind, streak, sx, sy, segx, segy, inv_seg2, rf, cs, sn, texture, c0, r0, c1, r1):
     """Sum of a footprint's sampled unit-peak weights over its pixel box ``c0..c1, r0..r1``.
 

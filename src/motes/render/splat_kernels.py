@@ -28,7 +28,7 @@ from functools import cache
 import numba
 import numpy as np
 
-from .._jit import device, fma, parallel_kernel
+from .._jit import called, fma, parallel_kernel
 from ._footprint import (
     BLUE,
     DEPTH,
@@ -118,7 +118,7 @@ def splat_kernel(kind: int, streak: bool, window: int):
     return kernel
 
 
-@device
+@called
 def _add(rgb, pixels, pixel, w, d, inv_soft, red, green, blue):
     """Depth-test (or soft-fade) one fragment of weight ``w`` at depth ``d`` and add it."""
     w *= depth_factor(pixels[pixel], d, inv_soft)
@@ -128,7 +128,7 @@ def _add(rgb, pixels, pixel, w, d, inv_soft, red, green, blue):
     rgb[q + np.uint64(2)] = fma(blue, w, rgb[q + np.uint64(2)])
 
 
-@device
+@called
 def _unpack(records, s, streak):
     """Record ``s``: head, radius, colour, tail, and the segment terms both splats use."""
     sx = records[s, SX]
@@ -149,7 +149,7 @@ def _unpack(records, s, streak):
     )  # fmt: skip
 
 
-@device
+@called
 def _splat_window(records, s, kind, streak, window, width, height, inv_soft, pixels, rgb):
     """Normalise and add a footprint whose pixel box fits a ``window`` × ``window`` window.
 
@@ -210,7 +210,7 @@ def _splat_window(records, s, kind, streak, window, width, height, inv_soft, pix
             _add(rgb, pixels, pixel, w, tail_depth + t * rise, inv_soft, red, green, blue)
 
 
-@device
+@called
 def _splat_any(records, s, kind, streak, width, height, inv_soft, texture, pixels, rgb):
     """Normalise and add a footprint of any size (clipped to the image)."""
     sx, sy, rf, red, green, blue, tx, ty, tail_depth, segx, segy, inv_seg2, inv_rf2, rise = _unpack(

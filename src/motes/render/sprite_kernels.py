@@ -23,7 +23,7 @@ from functools import cache
 import numba
 import numpy as np
 
-from .._jit import block_bounds, block_count, device, fma, parallel_kernel
+from .._jit import block_bounds, block_count, called, fma, parallel_kernel
 from ._footprint import (
     ALPHA,
     BAD_COLOR,
@@ -106,7 +106,7 @@ def project_kernel(kind: int, streak: bool):
     return kernel
 
 
-@device
+@called
 def _project_range(
     start,
     stop,
@@ -345,7 +345,7 @@ def gather_rows(source, index, out):
                 out[s, c] = source[i, c]
 
 
-@device
+@called
 def _blend(color, depth, row, col, w, d, inv_soft, additive, red, green, blue, alpha):
     """Depth-test (or soft-fade) one fragment of weight ``w`` at depth ``d`` and blend it.
 
@@ -390,7 +390,7 @@ def draw_kernel(kind: int, streak: bool):
     return kernel
 
 
-@device
+@called
 def _draw_tile(
     tile, records, starts, tiles_x, kind, streak, additive, inv_soft, texture, depth, color
 ):
