@@ -461,6 +461,68 @@ def test_a_grid_fluids_forces_act_live_over_its_fields(tmp_path):
     assert fluid.time > 4 / 30
 
 
+WORLDS = """\
+[scene]
+duration = 1.0
+fps = 30
+
+[[body]]
+name = "cradle"
+type = "pendulums"
+count = 3
+iterations = 8
+
+[[body]]
+name = "sky"
+type = "clouds"
+resolution = [8, 4, 8]
+cell_size = 10.0
+base_height = 0.0
+top_height = 40.0
+scale = 40.0
+wind = [6.0, 0.0, 0.0]
+  [body.render]
+  extinction = 0.1
+"""
+
+
+def test_a_rigid_worlds_settings_and_a_skys_wind_act_live(tmp_path):
+    source, found = live_scene(tmp_path, WORLDS, 3)
+    assert found["body.cradle.iterations"].live and not found["body.cradle.count"].live
+    assert found["body.sky.wind"].live and not found["body.sky.scale"].live
+    cradle, sky = source.scene.bodies["cradle"], source.scene.bodies["sky"]
+    world, position = cradle.world, cradle.world.position.copy()
+    drift = sky.drift.copy()
+    values = {
+        "body.cradle.gravity": [0.0, -1.0, 0.0],
+        "body.cradle.iterations": 20,
+        "body.sky.wind": [0.0, 0.0, -3.0],
+    }
+    assert source.set_values(values) == []
+    assert source.scene.bodies["cradle"] is cradle and cradle.world is world
+    assert world.iterations == 20 and world.gravity.tolist() == [0.0, -1.0, 0.0]
+    np.testing.assert_array_equal(world.position, position)  # nothing reset
+    source.advance()
+    assert not np.array_equal(world.position, position)  # it goes on
+    # the clouds go on from where the old wind took them
+    np.testing.assert_allclose(sky.drift, drift + np.array([0.0, 0.0, -3.0]) / 30)
+    (volume,) = sky.drawables()
+    np.testing.assert_allclose(volume.origin, sky.origin + sky.drift)
+    assert source.set_values({"body.cradle.count": 4}) == ["body.cradle.count"]
+
+
+def test_every_rigid_body_type_has_live_world_settings():
+    from typing import get_type_hints
+
+    from motes.scene.bodies import BODY_TYPES, LIVE_KEYS, _load_types
+    from motes.scene.body_rigid import RigidScene
+
+    _load_types()
+    for kind, builder in BODY_TYPES.items():
+        rigid = issubclass(get_type_hints(builder)["return"], RigidScene)
+        assert rigid == ("projection" in LIVE_KEYS.get(kind, ())), kind
+
+
 def test_a_value_out_of_range_changes_nothing(scene_file):
     source = LiveSource(scene_file)
     source.restart()

@@ -143,6 +143,13 @@ LIVE_KEYS: dict[str, tuple[str, ...]] = {
     "cloth": ("structural", "shear", "bending", "gravity", "air_damping", "force"),
     "hair": ("stretch", "bending", "air_damping", "gravity", "force"),
     "grid_fluid": ("viscosity", "vorticity", "buoyancy", "dissipation", "max_dt"),
+    "clouds": ("wind",),
+    # Every type built on a rigid world (body_rigid, body_rigid_world; a test checks
+    # the list against the registry): its world settings.
+    **dict.fromkeys(
+        ("rigid", "ragdoll_stairs", "rope_bridge", "pendulums", "box_tower", "swept_vs_posteriori"),
+        ("gravity", "damping", "iterations", "substeps", "projection", "force"),
+    ),
     "flock": (
         "separation",
         "alignment",

@@ -29,12 +29,21 @@ class CloudBody(Body):
         self.wind = np.asarray(wind, np.float64)
         self.look = look
         self.time = 0.0
+        #: Distance [m] the wind has carried the clouds, (3,): summed per step, so a wind
+        #: changed while the scene runs carries them on from where they are.
+        self.drift = np.zeros(3)
 
     def step(self, dt: float) -> None:
         self.time += dt
+        self.drift += self.wind * dt
+
+    def take_values(self, fresh: CloudBody) -> None:
+        """The wind of ``fresh`` (see ``LIVE_KEYS``), over these clouds' drift; their
+        shape (the density's keys) waits for the restart, which makes it again."""
+        self.wind = fresh.wind
 
     def drawables(self) -> list:
-        origin = self.origin + self.wind * self.time
+        origin = self.origin + self.drift
         return [Volume.from_zyx(self.density, cell_size=self.cell_size, origin=origin, **self.look)]
 
     def count(self) -> int:

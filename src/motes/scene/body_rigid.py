@@ -39,6 +39,9 @@ from .schema import (
     vector,
 )
 
+#: World settings a rigid body's scene keys set, which act from the next step.
+WORLD_SETTINGS = ("gravity", "damping", "iterations", "substeps", "projection", "forces")
+
 _BOX_COLORS = ((0.75, 0.45, 0.25), (0.3, 0.5, 0.75), (0.75, 0.7, 0.3), (0.45, 0.65, 0.4))
 
 
@@ -90,6 +93,14 @@ class RigidScene(Body):
         tuple of particles (their mean)."""
         for a, b, radius, tint in capsules:
             self.capsules.append((np.atleast_1d(a), np.atleast_1d(b), radius, tint))
+
+    def take_values(self, fresh: RigidScene) -> None:
+        """The world settings of ``fresh`` (see ``LIVE_KEYS``: gravity, damping,
+        iterations, substeps, projection, forces), over this world's bodies and state;
+        they act from the next step (the world's model shares its settings)."""
+        for name in WORLD_SETTINGS:
+            value = getattr(fresh.world, name)
+            setattr(self.world, name, list(value) if name == "forces" else value)
 
     def step(self, dt: float) -> None:
         for hook in self.hooks:
