@@ -82,9 +82,11 @@ device = njit(inline="always", **_COMMON)
 #: long bodies and for helpers of kernels that are not vectorised loops, since inlining
 #: copies the body's IR into every call site before typing (the fluid's wall passes:
 #: 13.6 s inlined against 4.4 s called; the sprite passes, projection and drawing: 41 s
-#: against 20 s; neither measurably slower). Hot helpers of vectorised loops stay
-#: :data:`device`: a call in a loop blocks its vectorisation (the curl noise ran 4.7x
-#: slower with its helpers called).
+#: against 23 s, at the same speed). Hot helpers stay :data:`device`: those of vectorised
+#: loops (a call in a loop blocks its vectorisation: the curl noise ran 4.7x slower with
+#: its helpers called) and those whose constant arguments unroll or fold code (the
+#: sprites' per-fragment weights and fixed windows: all called, 1M sprites drew 5 %
+#: slower on one thread).
 called = njit(**_COMMON)
 
 

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from .._jit import called, fma
+from .._jit import called, device, fma
 
 # Footprint kinds.
 POINT = 0  # bilinear tent of the offset from the particle (or its streak)
@@ -77,7 +77,7 @@ def inverse_softness(softness: float) -> float:
     return 1.0 / softness if softness > 0 else float(HARD)
 
 
-@called
+@device
 def depth_factor(opaque, d, inv_soft):
     """Weight factor of a fragment at depth ``d`` over opaque depth ``opaque`` [m].
 
@@ -117,7 +117,7 @@ def footprint_bounds(kind, sx, sy, tx, ty, rf):
     return c0, r0, c1, r1
 
 
-@called
+@device
 def segment_offset(streak, px, py, sx, sy, segx, segy, inv_seg2):
     """Offset of pixel centre ``(px, py)`` from the nearest point of a streak.
 
@@ -135,7 +135,7 @@ def segment_offset(streak, px, py, sx, sy, segx, segy, inv_seg2):
     return dx + back * segx, dy + back * segy, t
 
 
-@called
+@device
 def profile_weight(kind, dx, dy, rf, inv_rf2):
     """Unit-peak weight of a round footprint at offset ``(dx, dy)`` [px] from its centre."""
     if kind == POINT:

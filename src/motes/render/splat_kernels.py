@@ -28,7 +28,7 @@ from functools import cache
 import numba
 import numpy as np
 
-from .._jit import called, fma, parallel_kernel
+from .._jit import called, device, fma, parallel_kernel
 from ._footprint import (
     BLUE,
     DEPTH,
@@ -118,7 +118,7 @@ def splat_kernel(kind: int, streak: bool, window: int):
     return kernel
 
 
-@called
+@device
 def _add(rgb, pixels, pixel, w, d, inv_soft, red, green, blue):
     """Depth-test (or soft-fade) one fragment of weight ``w`` at depth ``d`` and add it."""
     w *= depth_factor(pixels[pixel], d, inv_soft)
@@ -128,7 +128,7 @@ def _add(rgb, pixels, pixel, w, d, inv_soft, red, green, blue):
     rgb[q + np.uint64(2)] = fma(blue, w, rgb[q + np.uint64(2)])
 
 
-@called
+@device
 def _unpack(records, s, streak):
     """Record ``s``: head, radius, colour, tail, and the segment terms both splats use."""
     sx = records[s, SX]
@@ -149,7 +149,7 @@ def _unpack(records, s, streak):
     )  # fmt: skip
 
 
-@called
+@device
 def _splat_window(records, s, kind, streak, window, width, height, inv_soft, pixels, rgb):
     """Normalise and add a footprint whose pixel box fits a ``window`` × ``window`` window.
 
