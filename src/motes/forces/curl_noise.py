@@ -369,33 +369,27 @@ def _curl_noise_kernel(
                 _hash_cells(
                     hash_pairs, ramp_pairs, k, cells[k], corners[2 * k], corners[2 * k + 1], count
                 )
-            for j in range(count):
-                i = start + j
-                px = x[i] * inv_scale
-                py = y[i] * inv_scale
-                pz = z[i] * inv_scale
-                fx, ux, dux = _fraction(frequency * px, real)
-                fy, uy, duy = _fraction(frequency * py, real)
-                fz, uz, duz = _fraction(frequency * pz, real)
-                sx, vx, dvx = _fraction(frequency * (px + shift), real)
-                sy, vy, dvy = _fraction(frequency * (py + shift), real)
-                sz, vz, dvz = _fraction(frequency * (pz + shift), real)
-                # Only the gradient is used; LLVM drops the values and unused components.
-                _, _, d0y, d0z = _noise(
-                    corners[0, j], corners[1, j], sx, fy, fz, vx, uy, uz, dvx, duy, duz, real
-                )
-                _, d1x, _, d1z = _noise(
-                    corners[2, j], corners[3, j], fx, sy, fz, ux, vy, uz, dux, dvy, duz, real
-                )
-                _, d2x, d2y, _ = _noise(
-                    corners[4, j], corners[5, j], fx, fy, sz, ux, uy, vz, dux, duy, dvz, real
-                )
-                grad[0, j] = fma(amplitude, d0y, grad[0, j])
-                grad[1, j] = fma(amplitude, d0z, grad[1, j])
-                grad[2, j] = fma(amplitude, d1x, grad[2, j])
-                grad[3, j] = fma(amplitude, d1z, grad[3, j])
-                grad[4, j] = fma(amplitude, d2x, grad[4, j])
-                grad[5, j] = fma(amplitude, d2y, grad[5, j])
+            # One potential at a time: one inlined copy of the noise (three made the
+            # kernel slow to compile). Potential k is shifted along axis k and gives the
+            # two components of its gradient that the curl uses.
+            for k in range(3):
+                for j in range(count):
+                    i = start + j
+                    px = x[i] * inv_scale
+                    py = y[i] * inv_scale
+                    pz = z[i] * inv_scale
+                    fx, ux, dux = _fraction(frequency * (px + shift if k == 0 else px), real)
+                    fy, uy, duy = _fraction(frequency * (py + shift if k == 1 else py), real)
+                    fz, uz, duz = _fraction(frequency * (pz + shift if k == 2 else pz), real)
+                    _, gx, gy, gz = _noise(
+                        corners[2 * k, j], corners[2 * k + 1, j], fx, fy, fz, ux, uy, uz, dux,
+                        duy, duz, real,
+                    )  # fmt: skip
+                    # ∂0/∂y ∂0/∂z, ∂1/∂x ∂1/∂z, ∂2/∂x ∂2/∂y
+                    first = gy if k == 0 else gx
+                    second = gy if k == 2 else gz
+                    grad[2 * k, j] = fma(amplitude, first, grad[2 * k, j])
+                    grad[2 * k + 1, j] = fma(amplitude, second, grad[2 * k + 1, j])
             frequency += frequency
             amplitude *= real(0.5)
         for j in range(count):
