@@ -96,8 +96,11 @@ def project_kernel(kind: int, streak: bool):
     ):  # fmt: skip
         n = positions.shape[0]
         for chunk in numba.prange(status.shape[0]):
+            # The loop index is int64 when Numba types the kernel and uint64 in the parallel
+            # body it builds: cast, or the called function compiles twice (4 s each).
+            index = np.int64(chunk)
             _project_range(
-                chunk * CHUNK, min(n, (chunk + 1) * CHUNK), chunk, cam, positions, colors,
+                index * CHUNK, min(n, (index + 1) * CHUNK), index, cam, positions, colors,
                 radii, rotation, velocities, checks, kind, streak, min_radius, shutter,
                 intensity, additive, fast, texture, texture_alpha_mean, record, boxes,
                 tile_of, counts, status,
