@@ -675,7 +675,8 @@ def draw_geometry(
     )
     lines = np.empty((len(ends), LINE_SIZE))
     line_box = np.empty((4, len(ends)), dtype=np.int32)
-    setup_lines(cam, ss, ends, widths, lines, line_box)
+    if len(ends):  # no call without lines: a scene without any compiles no line set-up
+        setup_lines(cam, ss, ends, widths, lines, line_box)
     # Triangles first, then lines: the tile kernel relies on that order.
     box = np.concatenate([tri_box, line_box], axis=1)
     bins = bin_boxes(box[0], box[1], box[2], box[3], frame.width, frame.height)
