@@ -351,8 +351,9 @@ class ParticleStore:
                 new_index[~live] = -1
                 new_index[sources] = holes
         else:
-            new_index = np.empty(n, dtype=np.int64) if index else None
+            new_index = None
             if index:
+                new_index = np.empty(n, dtype=np.int64)
                 _stable_index(mask, n, new_index)
             compact_rows = _compact_rows_parallel if n >= SERIAL_BELOW else _compact_rows_serial
             for group in self._groups:
