@@ -56,3 +56,13 @@ def test_tonemap_rejects_bad_options():
         to_srgb8(np.zeros((2, 2, 3), np.float32), tonemap="filmic")
     with pytest.raises(ValueError, match="exposure must be > 0"):
         to_srgb8(np.zeros((2, 2, 3), np.float32), exposure=0)
+
+
+def test_a_buffer_out_of_shape_or_layout_is_named():
+    color = np.ones((4, 6, 3), np.float32)
+    good = np.empty((4, 6, 3), np.uint8)
+    assert to_srgb8(color, out=good) is good
+    with pytest.raises(ValueError, match="out must be a C-contiguous uint8"):
+        to_srgb8(color, out=np.empty((6, 4, 3), np.uint8).transpose(1, 0, 2))
+    with pytest.raises(ValueError, match="out must be"):
+        to_srgb8(color, out=np.empty((4, 6, 3), np.float32))
