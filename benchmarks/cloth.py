@@ -11,14 +11,16 @@ corners, falling from rest. Figures, all measured in the same run:
 
 - **implicit**: milliseconds per step of the 64×64 and 128×128 cloths at h = 1/60 s
   (mean over a run of steps from rest, best of several runs), their ratio (the particle
-  count grows 4×), and simulated seconds per wall-clock second;
+  count grows 4×; target <= 4.5), and simulated seconds per wall-clock second (target
+  >= 3), with the multigrid preconditioner (the default) and, as the baseline measured
+  in the same run, block Jacobi;
 - **explicit**: the largest step at which explicit Euler (and, beside it, symplectic
   semi-implicit Euler) stays stable over a fixed simulated time, found by bisection on
   log h, the cost of its step, and simulated seconds per wall-clock second;
 - **speed-up**: implicit simulated-seconds-per-wall-second over explicit Euler's (the
   target is >= 5×), and over semi-implicit Euler's;
 - **hair**: milliseconds per step of 2,000 strands of 10 particles on a turning head at
-  h = 1/60 s (the ``hair`` scene's strands, twice as many).
+  h = 1/60 s (the ``hair`` scene's strands, twice as many), with both preconditioners.
 
 "Stable" means: after the simulated time, every value is finite, no particle moves faster
 than 20 m/s and no structural spring is stretched past 100 %. Longer windows can only
@@ -38,6 +40,7 @@ import numpy as np
 
 from motes.cloth import Cloth, Keyframes
 from motes.hair import Hair, Head
+from motes.integrate.implicit import ImplicitEuler
 
 from ._common import benchmark_main, machine, table
 
@@ -64,20 +67,24 @@ class Sizes:
         return cls(16, 32, 10, 1, 0.1, 3, 30, 200)
 
 
-def cloth(side: int, scheme: str = "implicit_euler") -> Cloth:
-    """The benchmark cloth: ``side`` × ``side`` particles on 1 m², top corners pinned."""
-    c = Cloth.grid(side, side, size=(1.0, 1.0), origin=(-0.5, 1.0, 0.0), scheme=scheme)
+def cloth(side: int, scheme: str = "implicit_euler", preconditioner: str = "multigrid") -> Cloth:
+    """The benchmark cloth: ``side`` × ``side`` particles on 1 m², top corners pinned,
+    solved to the cloth's default tolerance with ``preconditioner``."""
+    solver = ImplicitEuler(tolerance=1e-2, preconditioner=preconditioner)
+    c = Cloth.grid(
+        side, side, size=(1.0, 1.0), origin=(-0.5, 1.0, 0.0), scheme=scheme, solver=solver
+    )
     c.pin(c.grid_index(0, [0, -1]))
     return c
 
 
-def time_implicit(side: int, sizes: Sizes) -> dict:
+def time_implicit(side: int, sizes: Sizes, preconditioner: str = "multigrid") -> dict:
     """Mean wall time per implicit step over runs of ``sizes.steps`` steps from rest."""
-    warm = cloth(side)
+    warm = cloth(side, preconditioner=preconditioner)
     warm.step(H)  # loads the compiled kernels
     means, iterations = [], []
     for _ in range(sizes.runs):
-        c = cloth(side)
+        c = cloth(side, preconditioner=preconditioner)
         start = time.perf_counter()
         for _ in range(sizes.steps):
             c.step(H)
@@ -127,13 +134,17 @@ def time_explicit(side: int, scheme: str, h: float, sizes: Sizes) -> float:
     return (time.perf_counter() - start) / sizes.explicit_steps
 
 
-def time_hair(sizes: Sizes) -> dict:
+def time_hair(sizes: Sizes, preconditioner: str = "multigrid") -> dict:
     """Mean wall time per step of ``sizes.strands`` strands on a turning, nodding head."""
     turn = Keyframes([0.0, 0.5, 1.0], [[0, 0, 0], [60, 0, 0], [0, 25, 0]])
     means, iterations = [], []
     for _ in range(sizes.runs + 1):  # the first run loads the kernels
         hair = Hair(
-            Head((0.0, 1.6, 0.0), 0.1, rotation=turn), strands=sizes.strands, particles=10, seed=1
+            Head((0.0, 1.6, 0.0), 0.1, rotation=turn),
+            strands=sizes.strands,
+            particles=10,
+            seed=1,
+            solver=ImplicitEuler(preconditioner=preconditioner),
         )
         start = time.perf_counter()
         for _ in range(sizes.steps):
@@ -170,6 +181,8 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
     )
     small = time_implicit(sizes.small, sizes)
     large = time_implicit(sizes.large, sizes)
+    small_jacobi = time_implicit(sizes.small, sizes, "jacobi")
+    large_jacobi = time_implicit(sizes.large, sizes, "jacobi")
     realtime = H / (small["ms"] * 1e-3)
     figures |= {
         "implicit_64_ms": small["ms"],
@@ -180,23 +193,36 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
         "implicit_128_iterations": large["iterations"],
         "implicit_128_over_64": large["ms"] / small["ms"],
         "implicit_64_realtime_factor": realtime,
+        "jacobi_64_ms": small_jacobi["ms"],
+        "jacobi_64_iterations": small_jacobi["iterations"],
+        "jacobi_128_ms": large_jacobi["ms"],
+        "jacobi_128_iterations": large_jacobi["iterations"],
+        "jacobi_128_over_64": large_jacobi["ms"] / small_jacobi["ms"],
+        "multigrid_speedup_64": small_jacobi["ms"] / small["ms"],
+        "multigrid_speedup_128": large_jacobi["ms"] / large["ms"],
     }
+    rows = []
+    for name, result in (("multigrid", (small, large)), ("jacobi", (small_jacobi, large_jacobi))):
+        for side, r in zip((sizes.small, sizes.large), result, strict=True):
+            rows.append(
+                (
+                    f"{side}×{side} {name}",
+                    f"{r['ms']:8.2f} ms/step (median {r['median_ms']:.2f}), "
+                    f"{r['iterations']:.1f} CG iterations",
+                )
+            )
+        rows.append(("  ratio", f"{result[1]['ms'] / result[0]['ms']:8.2f}x for 4x the particles"))
     out()
     out(
         table(
             [
+                *rows,
+                ("real time", f"{realtime:8.2f} simulated s per wall s at h = 1/60 s (target > 3)"),
                 (
-                    f"{sizes.small}×{sizes.small}",
-                    f"{small['ms']:8.2f} ms/step (median "
-                    f"{small['median_ms']:.2f}), {small['iterations']:.0f} CG iterations",
+                    "multigrid",
+                    f"{figures['multigrid_speedup_64']:8.2f}x and "
+                    f"{figures['multigrid_speedup_128']:.2f}x faster than block Jacobi",
                 ),
-                (
-                    f"{sizes.large}×{sizes.large}",
-                    f"{large['ms']:8.2f} ms/step (median "
-                    f"{large['median_ms']:.2f}), {large['iterations']:.0f} CG iterations",
-                ),
-                ("ratio", f"{large['ms'] / small['ms']:8.2f}x for 4x the particles"),
-                ("real time", f"{realtime:8.2f} simulated s per wall s at h = 1/60 s (target > 1)"),
             ],
             title="1. Implicit Euler at h = 1/60 s",
         )
@@ -235,10 +261,13 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
         )
     )
     hair = time_hair(sizes)
+    hair_jacobi = time_hair(sizes, "jacobi")
     figures |= {
         "hair_2000_ms": hair["ms"],
         "hair_2000_iterations": hair["iterations"],
         "hair_2000_realtime_factor": H / (hair["ms"] * 1e-3),
+        "hair_2000_jacobi_ms": hair_jacobi["ms"],
+        "hair_2000_jacobi_iterations": hair_jacobi["iterations"],
     }
     out()
     out(
@@ -247,8 +276,12 @@ def run(sizes: Sizes, *, quick: bool, out=print) -> dict:
                 ("strands", f"{sizes.strands:,} × 10 particles ({hair['particles']:,})"),
                 (
                     "step",
-                    f"{hair['ms']:8.2f} ms at h = 1/60 s, {hair['iterations']:.0f} CG "
+                    f"{hair['ms']:8.2f} ms at h = 1/60 s, {hair['iterations']:.1f} CG "
                     f"iterations: {1e3 / hair['ms']:.0f} steps per s",
+                ),
+                (
+                    "block Jacobi",
+                    f"{hair_jacobi['ms']:8.2f} ms, {hair_jacobi['iterations']:.1f} CG iterations",
                 ),
             ],
             title="3. Hair on a turning head",

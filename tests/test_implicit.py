@@ -22,14 +22,20 @@ def random_network(rng, n=12, m=30):
     return x, v, pairs, rest, ks, kd, mass
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_step_matches_a_dense_solve(seed):
+PRECONDITIONERS = ["multigrid", "jacobi"]
+
+
+@pytest.mark.parametrize("preconditioner", PRECONDITIONERS)
+@pytest.mark.parametrize(("seed", "n"), [(0, 12), (1, 60), (2, 90)])
+def test_step_matches_a_dense_solve(seed, n, preconditioner):
+    # 12 particles: too few to coarsen (multigrid is one Gauss-Seidel sweep each way);
+    # 60 and 90: two or more levels.
     rng = np.random.default_rng(seed)
-    x, v, pairs, rest, ks, kd, mass = random_network(rng)
+    x, v, pairs, rest, ks, kd, mass = random_network(rng, n=n, m=3 * n)
     external = rng.normal(size=x.shape)
     h = 0.05
     expected = implicit_step(x, v, mass, h, pairs, rest, ks, kd, external=external, damping=0.3)
-    solver = ImplicitEuler(tolerance=1e-12, max_iterations=1000)
+    solver = ImplicitEuler(tolerance=1e-12, max_iterations=1000, preconditioner=preconditioner)
     x1, v1 = x.copy(), v.copy()
     report = solver.step(
         x1, v1, mass, h, forces=[mo.Springs(pairs, rest, ks, kd)], external=external, damping=0.3
@@ -40,10 +46,12 @@ def test_step_matches_a_dense_solve(seed):
     np.testing.assert_allclose(x1, x + h * v1, rtol=1e-14, atol=1e-14)
 
 
-def test_filtering_matches_a_dense_solve_and_holds_constraints_exactly():
+@pytest.mark.parametrize("preconditioner", PRECONDITIONERS)
+@pytest.mark.parametrize("n", [12, 60])
+def test_filtering_matches_a_dense_solve_and_holds_constraints_exactly(n, preconditioner):
     rng = np.random.default_rng(7)
-    x, v, pairs, rest, ks, kd, mass = random_network(rng)
-    constraints = ConstraintFilter(12)
+    x, v, pairs, rest, ks, kd, mass = random_network(rng, n=n, m=3 * n)
+    constraints = ConstraintFilter(n)
     constraints.pin([0, 3])
     constraints.pin(5, velocity=(1.0, -2.0, 0.5))
     constraints.restrict([7, 8], (0.0, 1.0, 0.0))  # slide in the x-z plane
@@ -51,7 +59,7 @@ def test_filtering_matches_a_dense_solve_and_holds_constraints_exactly():
         x, v, mass, 0.1, pairs, rest, ks, kd, filt=constraints.filter, target=constraints.velocity
     )
     x1, v1 = x.copy(), v.copy()
-    solver = ImplicitEuler(tolerance=1e-12, max_iterations=1000)
+    solver = ImplicitEuler(tolerance=1e-12, max_iterations=1000, preconditioner=preconditioner)
     solver.step(
         x1, v1, mass, 0.1, forces=[mo.Springs(pairs, rest, ks, kd)], constraints=constraints
     )
@@ -146,6 +154,7 @@ def test_solver_reports_and_raises_when_it_cannot_converge():
         ({"tolerance": 0.0}, "tolerance must be > 0"),
         ({"max_iterations": 0}, "max_iterations must be >= 1"),
         ({"on_failure": "ignore"}, "on_failure must be one of"),
+        ({"preconditioner": "ilu"}, "preconditioner must be one of"),
     ],
 )
 def test_bad_solver_parameters(kwargs, message):

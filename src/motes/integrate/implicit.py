@@ -51,6 +51,11 @@ from .implicit_kernels import (
     product_kernel,
     spring_system_kernel,
 )
+from .multigrid import Hierarchy, strong_springs
+from .multigrid_kernels import galerkin_kernel
+
+#: Preconditioners of the conjugate gradient solve (see :class:`ImplicitEuler`).
+PRECONDITIONERS = ("multigrid", "jacobi")
 
 _IDENTITY = np.eye(3).ravel()
 
@@ -162,10 +167,16 @@ class ConstraintFilter:
         return self._constrained.copy()
 
     def target_change(self, velocity: np.ndarray) -> np.ndarray:
-        """``z = (I - S)(v_target - v0)`` as an ``(n, 3)`` array."""
-        diff = (self.velocity - velocity).T
-        s = self.filter.reshape(-1, 3, 3)
-        return np.ascontiguousarray(diff - np.einsum("kij,kj->ki", s, diff))
+        """``z = (I - S)(v_target - v0)`` as an ``(n, 3)`` array (0 where free)."""
+        idx = np.flatnonzero(self._constrained)
+        z = np.zeros((self.n, 3))
+        z[idx] = self.free_part(idx, (self.velocity[:, idx] - velocity[:, idx]).T, complement=True)
+        return z
+
+    def free_part(self, idx: np.ndarray, v: np.ndarray, *, complement: bool = False):
+        """``S_i v_i`` (or ``(I - S_i) v_i``) for particles ``idx`` and rows ``v`` (k, 3)."""
+        sv = np.einsum("kij,kj->ki", self.filter[idx].reshape(-1, 3, 3), v)
+        return v - sv if complement else sv
 
 
 class _Pattern:
@@ -210,6 +221,66 @@ class _Pattern:
         self.off = np.empty((self.cols.shape[0], 9))
         self.spring_rhs = np.empty((3, m))
         self.work = np.empty((5, n, 3))
+        self._hierarchy: Hierarchy | None = None
+
+    @property
+    def hierarchy(self) -> Hierarchy:
+        """Multigrid levels of this sparsity, built on first use, with their scratch."""
+        if self._hierarchy is None:
+            slot_rows = np.repeat(np.arange(self.n, dtype=np.int64), np.diff(self.row_ptr))
+            strong = strong_springs(self.n, self.pairs, self.coef)
+            h = self._hierarchy = Hierarchy(self.n, self.pairs, slot_rows, self.cols, strong)
+            self.row_coef = np.empty((2 * self.m, 5), dtype=np.float32)
+            self.gdiag = np.empty((self.n, 9))
+            self.cdiag = np.empty((h.nodes, 9))
+            self.cinv = np.empty((h.nodes, 9))
+            self.coff = np.empty((h.ccols.shape[0], 9))
+            self.crhs = np.empty((h.nodes, 3))
+            self.cx = np.empty((h.nodes, 3))
+        return self._hierarchy
+
+    def multigrid(self, filt: np.ndarray, held: np.ndarray) -> tuple:
+        """This step's multigrid operands for ``pcg_kernel``: the fine level's blocks in
+        incidence order, ``G_i = Ã_ii⁻¹ S_i`` and the coarse matrices (after assembly)."""
+        h = self.hierarchy
+        galerkin_kernel(
+            filt,
+            self.inv_diag,
+            self.gdiag,
+            self.diag,
+            self.off,
+            self.row_ptr,
+            self.cols,
+            self.pairs,
+            self.coef,
+            held,
+            h.agg,
+            h.spring_slot,
+            h.off_slot,
+            h.level_start,
+            h.crow_ptr,
+            h.cagg,
+            h.cslot,
+            h.entry_spring,
+            self.row_coef,
+            self.cdiag,
+            self.coff,
+            self.cinv,
+        )
+        fine = (
+            h.entry_ptr,
+            h.row_mid,
+            h.row_other,
+            self.row_coef,
+            self.row_ptr,
+            self.cols,
+            self.off,
+            self.gdiag,
+            held,
+            h.agg,
+        )
+        coarse = (h.level_start, h.crow_ptr, h.ccols, self.coff, self.cdiag, self.cinv, h.cagg)
+        return fine, coarse, self.crhs, self.cx
 
     def matches(self, n, spring_pairs, rows, cols) -> bool:
         return (
@@ -224,6 +295,32 @@ class _Pattern:
         out = np.empty_like(v)
         product_kernel(self.diag, self.off, self.row_ptr, self.cols, self.pairs, self.coef, v, out)
         return out
+
+
+def _no_multigrid() -> tuple:
+    """Empty operands of ``pcg_kernel``'s multigrid, typed as the real ones (one
+    compiled kernel serves both preconditioners)."""
+    ints = np.empty(0, dtype=np.int64)
+    blocks = np.empty((0, 9))
+    vectors = np.empty((0, 3))
+    held = np.empty(0, dtype=np.bool_)
+    fine = (
+        ints,
+        ints,
+        np.empty(0, dtype=np.int32),
+        np.empty((0, 5), dtype=np.float32),
+        ints,
+        ints,
+        blocks,
+        blocks,
+        held,
+        ints,
+    )
+    coarse = (ints, ints, ints, blocks, blocks, blocks, ints)
+    return fine, coarse, vectors, vectors
+
+
+_NO_MULTIGRID = _no_multigrid()
 
 
 def _pointers(sorted_owner: np.ndarray, n: int) -> np.ndarray:
@@ -249,6 +346,14 @@ class ImplicitEuler:
         When the solve misses ``tolerance``: raise :class:`SolverError`, or keep the
         last iterate (``last_report`` says so). A breakdown (``A`` not positive
         definite, or non-finite values) always raises.
+    preconditioner : {"multigrid", "jacobi"}
+        ``"multigrid"``: one aggregation multigrid V-cycle per iteration
+        (:mod:`motes.integrate.multigrid`), whose iteration count stays about flat as a
+        cloth gets finer; ``"jacobi"``: the inverse of ``A``'s diagonal blocks, cheaper
+        per iteration but needing iterations in proportion to the cloth's side. The
+        stopping test is in the preconditioner's norm, which for multigrid is close to
+        the error's energy norm: at the same ``tolerance`` it stops nearer the exact
+        solution.
 
     Attributes
     ----------
@@ -263,7 +368,9 @@ class ImplicitEuler:
         max_iterations: int = 500,
         warm_start: bool = True,
         on_failure: str = "raise",
+        preconditioner: str = "multigrid",
     ):
+        self.preconditioner = check.choice("preconditioner", preconditioner, PRECONDITIONERS)
         self.tolerance = check.real("tolerance", tolerance, low=0.0, high=1.0, low_open=True)
         self.max_iterations = check.integer("max_iterations", max_iterations, low=1)
         self.on_failure = check.choice("on_failure", on_failure, ("raise", "accept"))
@@ -275,7 +382,10 @@ class ImplicitEuler:
         self._pattern: _Pattern | None = None
 
     def __repr__(self) -> str:
-        return f"ImplicitEuler(tolerance={self.tolerance}, max_iterations={self.max_iterations})"
+        return (
+            f"ImplicitEuler(tolerance={self.tolerance}, max_iterations={self.max_iterations}, "
+            f"preconditioner={self.preconditioner!r})"
+        )
 
     @property
     def previous_change(self) -> np.ndarray | None:
@@ -422,8 +532,13 @@ class ImplicitEuler:
             start = constraints.target_change(velocity)
         previous = self._previous
         if self.warm_start and previous is not None and previous.shape == (n, 3):
-            start += np.einsum("kij,kj->ki", filt.reshape(-1, 3, 3), previous)
+            start += previous  # S = I where free
+            if constraints is not None:
+                idx = np.flatnonzero(held)
+                start[idx] -= constraints.free_part(idx, previous[idx], complement=True)
         dv = np.empty((n, 3))
+        multigrid = self.preconditioner == "multigrid"
+        operands = pattern.multigrid(filt, held) if multigrid else _NO_MULTIGRID
         iterations, delta0, delta = pcg_kernel(
             pattern.diag,
             pattern.off,
@@ -440,15 +555,17 @@ class ImplicitEuler:
             self.max_iterations,
             dv,
             pattern.work,
+            multigrid,
+            *operands,
         )
         broke = not np.isfinite(delta) or not np.all(np.isfinite(dv))
         residual = float(np.sqrt(delta / delta0)) if delta0 > 0 and not broke else 0.0
         converged = not broke and residual <= self.tolerance
         impulse = np.zeros(3)
         if constraints is not None and not broke:
-            e = pattern.product(dv) - b
-            s = filt.reshape(-1, 3, 3)
-            impulse = (e - np.einsum("kij,kj->ki", s, e)).sum(axis=0)
+            idx = np.flatnonzero(held)
+            e = pattern.product(dv)[idx] - b[idx]
+            impulse = constraints.free_part(idx, e, complement=True).sum(axis=0)
         report = SolveReport(int(iterations), residual, converged, impulse)
         self.last_report = report
         if broke:

@@ -27,6 +27,7 @@ import numba
 import numpy as np
 
 from .._jit import block_bounds, block_count, device, parallel_kernel, serial_kernel
+from .multigrid_kernels import vcycle
 
 
 @parallel_kernel
@@ -256,6 +257,35 @@ def product_kernel(diag, off, row_ptr, cols, pairs, coef, v, out):
     _product(diag, off, row_ptr, cols, pairs, coef, v, out)
 
 
+@device
+def _precondition(multigrid, inv_diag, filt, held, fine, coarse, r, s, crhs, cx):
+    """``s = P⁻¹ r`` in the free directions: ``S`` times block Jacobi's ``diag(A)⁻¹ r``,
+    or one multigrid V-cycle (:func:`~motes.integrate.multigrid_kernels.vcycle`).
+    Returns ``rᵀ s``."""
+    n = r.shape[0]
+    if multigrid:
+        vcycle(fine, coarse, r, s, crhs, cx)
+    else:
+        for i in range(n):
+            px, py, pz = _apply(inv_diag, i, r[i, 0], r[i, 1], r[i, 2])
+            s[i, 0], s[i, 1], s[i, 2] = _filter(filt, held, i, px, py, pz)
+    return _dot(r, s)
+
+
+@device
+def _dot(u, v):
+    """``uᵀ v`` of ``(n, 3)`` vectors, summed per ``BLOCK`` of particles, then in order."""
+    n = u.shape[0]
+    total = 0.0
+    for blk in range(block_count(n)):
+        first, stop = block_bounds(blk, n)
+        partial = 0.0
+        for i in range(first, stop):
+            partial += u[i, 0] * v[i, 0] + u[i, 1] * v[i, 1] + u[i, 2] * v[i, 2]
+        total += partial
+    return total
+
+
 @serial_kernel
 def pcg_kernel(
     diag,
@@ -273,16 +303,23 @@ def pcg_kernel(
     max_iterations,
     dv,
     work,
+    multigrid,
+    fine,
+    coarse,
+    crhs,
+    cx,
 ):
     """Baraff & Witkin's modified preconditioned conjugate gradients (1998, §5.3).
 
     Solves ``S (A Δv - b) = 0`` with ``(I - S) Δv = (I - S) z``, where ``S`` (``filt``,
     ``(n, 9)``: one symmetric projection per particle, applied where ``held`` (n,) is
     True, the identity elsewhere) removes the constrained directions and ``z`` holds the
-    prescribed velocity changes there. The preconditioner is the inverse of ``A``'s
-    diagonal blocks (block Jacobi). ``start`` is the first iterate: it
-    must equal ``z`` in the constrained directions (any free part is a warm start).
-    Stops when the preconditioned residual ``rᵀP⁻¹r`` falls below ``tolerance²`` times
+    prescribed velocity changes there. The preconditioner is one aggregation multigrid
+    V-cycle where ``multigrid`` is True (``fine``, ``coarse``, ``crhs``, ``cx``: see
+    :func:`~motes.integrate.multigrid_kernels.vcycle`), else the inverse of ``A``'s
+    diagonal blocks (block Jacobi). ``start`` is the first iterate: it must equal ``z``
+    in the constrained directions (any free part is a warm start). Stops when the
+    preconditioned residual ``rᵀP⁻¹r`` falls below ``tolerance²`` times
     ``max((Sb)ᵀP⁻¹(Sb), r0ᵀP⁻¹r0)`` (Baraff & Witkin's criterion relative to the
     right-hand side, or to the first residual when a prescribed motion alone drives the
     system), or after ``max_iterations``.
@@ -297,93 +334,52 @@ def pcg_kernel(
     ``A`` not positive definite on the free directions).
     """
     n = b.shape[0]
-    blocks = block_count(n)
-    partial = np.zeros(blocks)
-    scale = np.zeros(blocks)
     r = work[0]
     c = work[1]
     q = work[2]
     s = work[3]
     product = work[4]
+    # Reference: (Sb)ᵀ P⁻¹ (Sb).
+    for i in range(n):
+        r[i, 0], r[i, 1], r[i, 2] = _filter(filt, held, i, b[i, 0], b[i, 1], b[i, 2])
+    reference = _precondition(multigrid, inv_diag, filt, held, fine, coarse, r, s, crhs, cx)
     # Δv = start; r = S (b - A Δv); c = S P⁻¹ r
     _product(diag, off, row_ptr, cols, pairs, coef, start, product)
-    for blk in range(blocks):
-        first, stop = block_bounds(blk, n)
-        total = 0.0
-        rhs = 0.0
-        for i in range(first, stop):
-            dv[i, 0] = start[i, 0]
-            dv[i, 1] = start[i, 1]
-            dv[i, 2] = start[i, 2]
-            fx, fy, fz = _filter(filt, held, i, b[i, 0], b[i, 1], b[i, 2])
-            px, py, pz = _apply(inv_diag, i, fx, fy, fz)
-            rhs += fx * px + fy * py + fz * pz
-            rx, ry, rz = _filter(
-                filt,
-                held,
-                i,
-                b[i, 0] - product[i, 0],
-                b[i, 1] - product[i, 1],
-                b[i, 2] - product[i, 2],
-            )
-            r[i, 0] = rx
-            r[i, 1] = ry
-            r[i, 2] = rz
-            px, py, pz = _apply(inv_diag, i, rx, ry, rz)
-            cx, cy, cz = _filter(filt, held, i, px, py, pz)
-            c[i, 0] = cx
-            c[i, 1] = cy
-            c[i, 2] = cz
-            total += rx * cx + ry * cy + rz * cz
-        partial[blk] = total
-        scale[blk] = rhs
-    delta = 0.0
-    reference = 0.0
-    for blk in range(blocks):
-        delta += partial[blk]
-        reference += scale[blk]
+    for i in range(n):
+        for d in range(3):
+            dv[i, d] = start[i, d]
+        r[i, 0], r[i, 1], r[i, 2] = _filter(
+            filt,
+            held,
+            i,
+            b[i, 0] - product[i, 0],
+            b[i, 1] - product[i, 1],
+            b[i, 2] - product[i, 2],
+        )
+    delta = _precondition(multigrid, inv_diag, filt, held, fine, coarse, r, c, crhs, cx)
     delta0 = max(delta, reference)
     threshold = tolerance * tolerance * delta0
     iterations = 0
     while delta > threshold and iterations < max_iterations:
         # q = S A c; curvature cᵀq
         _product(diag, off, row_ptr, cols, pairs, coef, c, product)
-        for blk in range(blocks):
-            first, stop = block_bounds(blk, n)
-            total = 0.0
-            for i in range(first, stop):
-                qx, qy, qz = _filter(filt, held, i, product[i, 0], product[i, 1], product[i, 2])
-                q[i, 0] = qx
-                q[i, 1] = qy
-                q[i, 2] = qz
-                total += c[i, 0] * qx + c[i, 1] * qy + c[i, 2] * qz
-            partial[blk] = total
-        curvature = 0.0
-        for blk in range(blocks):
-            curvature += partial[blk]
+        for i in range(n):
+            q[i, 0], q[i, 1], q[i, 2] = _filter(
+                filt, held, i, product[i, 0], product[i, 1], product[i, 2]
+            )
+        curvature = _dot(c, q)
         if not curvature > 0.0:
             return iterations, delta0, np.nan
         alpha = delta / curvature
-        for blk in range(blocks):
-            first, stop = block_bounds(blk, n)
-            total = 0.0
-            for i in range(first, stop):
-                for d in range(3):
-                    dv[i, d] += alpha * c[i, d]
-                    r[i, d] -= alpha * q[i, d]
-                sx, sy, sz = _apply(inv_diag, i, r[i, 0], r[i, 1], r[i, 2])
-                s[i, 0] = sx
-                s[i, 1] = sy
-                s[i, 2] = sz
-                total += r[i, 0] * sx + r[i, 1] * sy + r[i, 2] * sz
-            partial[blk] = total
+        for i in range(n):
+            for d in range(3):
+                dv[i, d] += alpha * c[i, d]
+                r[i, d] -= alpha * q[i, d]
         previous = delta
-        delta = 0.0
-        for blk in range(blocks):
-            delta += partial[blk]
+        delta = _precondition(multigrid, inv_diag, filt, held, fine, coarse, r, s, crhs, cx)
         beta = delta / previous
         for i in range(n):
-            cx, cy, cz = _filter(
+            c[i, 0], c[i, 1], c[i, 2] = _filter(
                 filt,
                 held,
                 i,
@@ -391,9 +387,6 @@ def pcg_kernel(
                 s[i, 1] + beta * c[i, 1],
                 s[i, 2] + beta * c[i, 2],
             )
-            c[i, 0] = cx
-            c[i, 1] = cy
-            c[i, 2] = cz
         iterations += 1
     return iterations, delta0, delta
 

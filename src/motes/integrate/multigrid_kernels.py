@@ -1,0 +1,427 @@
+r"""Compiled pieces of the aggregation multigrid preconditioner (:mod:`.multigrid`).
+
+Level 0 is the implicit system ``A`` itself, in the form of
+:mod:`~motes.integrate.implicit_kernels`: a diagonal block per particle, the springs'
+blocks ``-C_k = -(α I + β u uᵀ)`` (read row by row through the incidence list, from
+``row_coef``, the springs' five numbers gathered in incidence order once per step), and
+other forces' blocks in block-CSR form. The coarse levels are block-CSR matrices, all
+levels in one set of arrays with a global node numbering: level ``l``'s nodes are
+``level_start[l]:level_start[l + 1]``, node ``p``'s off-diagonal blocks
+``coff[crow_ptr[p]:crow_ptr[p + 1]]`` at columns ``ccols`` (global numbers).
+
+Constraints (Baraff & Witkin's filter ``S``): the preconditioner works on
+``Ã = S A S + (I - S)``, whose diagonal blocks it inverts as ``G_i = Ã_ii⁻¹ S_i``
+(``gdiag``; ``A_ii⁻¹`` for a free particle). A constrained particle (``held``) takes no
+coarse correction and gives no residual to the coarse levels, so the coarse matrices are
+Galerkin products ``Pᵀ Ã P`` over free particles only.
+
+Everything here is serial: it runs inside the serial conjugate gradient loop.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._jit import called, device, serial_kernel
+
+#: Symmetric Gauss-Seidel sweep pairs on the coarsest level: a few nodes (or, where
+#: coarsening stalls, unconnected ones, which one sweep solves exactly).
+COARSEST_SWEEPS = 4
+
+#: Scale of the coarse correction on level 0. A piecewise constant interpolation moves an
+#: aggregate as one and misses the energy of its smooth bending, so the plain correction
+#: falls short; scaling it (Blaheta 1986's over-correction, safe below 2) took 64×64 and
+#: 128×128 cloths from 9.7 and 12.3 iterations to 9.1 and 11.2 at a 1e-3 tolerance.
+CORRECTION = 1.5
+
+
+@serial_kernel
+def aggregate_kernel(indptr, indices, agg):
+    """Greedy aggregation of a graph (Vaněk, Mandel & Brezina 1996, §5), in node order.
+
+    ``indptr``, ``indices``: the graph in CSR form (symmetric, no self loops). Writes
+    ``agg[i]``, the aggregate of node ``i``, and returns the number of aggregates.
+
+    1. A node whose neighbours are all free seeds an aggregate of itself and them.
+    2. A node left over joins the aggregate of a neighbour seeded in pass 1.
+    3. Nodes still left seed aggregates of themselves and their free neighbours.
+    """
+    n = agg.shape[0]
+    for i in range(n):
+        agg[i] = -1
+    count = 0
+    for i in range(n):
+        if agg[i] >= 0:
+            continue
+        alone = True
+        for p in range(indptr[i], indptr[i + 1]):
+            if agg[indices[p]] >= 0:
+                alone = False
+                break
+        if not alone:
+            continue
+        agg[i] = count
+        for p in range(indptr[i], indptr[i + 1]):
+            agg[indices[p]] = count
+        count += 1
+    seeded = agg.copy()
+    for i in range(n):
+        if agg[i] >= 0:
+            continue
+        for p in range(indptr[i], indptr[i + 1]):
+            if seeded[indices[p]] >= 0:
+                agg[i] = seeded[indices[p]]
+                break
+    for i in range(n):
+        if agg[i] >= 0:
+            continue
+        agg[i] = count
+        for p in range(indptr[i], indptr[i + 1]):
+            if agg[indices[p]] < 0:
+                agg[indices[p]] = count
+        count += 1
+    return count
+
+
+@device
+def _add_symmetric(out, p, sign, xx, xy, xz, yy, yz, zz):
+    """``out[p] += sign`` times the symmetric 3×3 block of the six given entries."""
+    out[p, 0] += sign * xx
+    out[p, 1] += sign * xy
+    out[p, 2] += sign * xz
+    out[p, 3] += sign * xy
+    out[p, 4] += sign * yy
+    out[p, 5] += sign * yz
+    out[p, 6] += sign * xz
+    out[p, 7] += sign * yz
+    out[p, 8] += sign * zz
+
+
+@device
+def _add_block(out, p, source, s):
+    for c in range(9):
+        out[p, c] += source[s, c]
+
+
+@device
+def _invert_or_zero(m, out, p):
+    """``out[p]`` = inverse of the 3×3 ``m[p]``; zero where ``m[p]`` is zero (a coarse
+    node made of constrained particles only, which never receives a residual)."""
+    c0 = m[p, 4] * m[p, 8] - m[p, 5] * m[p, 7]
+    c1 = m[p, 5] * m[p, 6] - m[p, 3] * m[p, 8]
+    c2 = m[p, 3] * m[p, 7] - m[p, 4] * m[p, 6]
+    det = m[p, 0] * c0 + m[p, 1] * c1 + m[p, 2] * c2
+    if det == 0.0:
+        for c in range(9):
+            out[p, c] = 0.0
+        return
+    inv = 1.0 / det
+    out[p, 0] = c0 * inv
+    out[p, 1] = (m[p, 2] * m[p, 7] - m[p, 1] * m[p, 8]) * inv
+    out[p, 2] = (m[p, 1] * m[p, 5] - m[p, 2] * m[p, 4]) * inv
+    out[p, 3] = c1 * inv
+    out[p, 4] = (m[p, 0] * m[p, 8] - m[p, 2] * m[p, 6]) * inv
+    out[p, 5] = (m[p, 2] * m[p, 3] - m[p, 0] * m[p, 5]) * inv
+    out[p, 6] = c2 * inv
+    out[p, 7] = (m[p, 1] * m[p, 6] - m[p, 0] * m[p, 7]) * inv
+    out[p, 8] = (m[p, 0] * m[p, 4] - m[p, 1] * m[p, 3]) * inv
+
+
+@device
+def _product3(a, b, out):
+    """``out = a b`` for row-major 3×3 ``a``, ``b`` (flat arrays of 9)."""
+    for r in range(3):
+        for c in range(3):
+            out[3 * r + c] = a[3 * r] * b[c] + a[3 * r + 1] * b[3 + c] + a[3 * r + 2] * b[6 + c]
+
+
+@device
+def _filtered_inverse(filt, diag, i, gdiag, m, t):
+    """``gdiag[i] = Ã_ii⁻¹ S_i`` with ``Ã_ii = S_i A_ii S_i + (I - S_i)``: it inverts
+    ``S A S`` on ``S``'s range and maps the constrained directions to 0. ``m`` and ``t``
+    are scratch of 9."""
+    s = filt[i]
+    _product3(s, diag[i], t)
+    _product3(t, s, m)
+    for c in range(9):
+        m[c] -= s[c]
+    m[0] += 1.0
+    m[4] += 1.0
+    m[8] += 1.0
+    _invert_or_zero(m.reshape((1, 9)), t.reshape((1, 9)), 0)
+    _product3(t, s, m)
+    for c in range(9):
+        gdiag[i, c] = m[c]
+
+
+@serial_kernel
+def galerkin_kernel(
+    filt,
+    inv_diag,
+    gdiag,
+    diag,
+    off,
+    row_ptr,
+    cols,
+    pairs,
+    coef,
+    held,
+    agg,
+    spring_slot,
+    off_slot,
+    level_start,
+    crow_ptr,
+    cagg,
+    cslot,
+    entry_spring,
+    row_coef,
+    cdiag,
+    coff,
+    cinv,
+):
+    """This step's level-0 rows and coarse matrices ``Pᵀ Ã P`` (piecewise constant ``P``).
+
+    Level 0's spring entries, row by row, take their springs' five numbers
+    (``row_coef[e] = coef[entry_spring[e]]``, float32: the preconditioner needs no more,
+    and the sweeps then read half the bytes).
+
+    With ``P`` summing each aggregate, a coarse block is the sum of the fine blocks
+    between the two aggregates: an aggregate's diagonal block gathers its particles'
+    diagonal blocks and the blocks between them (a spring inside an aggregate adds
+    ``-2 C_k``), and a block between two aggregates lands in the coarse entry listed for
+    it (``spring_slot`` (m, 2) for both directions of a spring, ``off_slot`` for the fine
+    block-CSR entries, ``cslot`` for a coarse level's entries in the next; -1: inside an
+    aggregate). Blocks touching a constrained particle are left out (Galerkin over free
+    particles). Also inverts every coarse diagonal block, and writes level 0's
+    ``G_i = Ã_ii⁻¹ S_i`` (``inv_diag[i]`` where free).
+    """
+    m = np.empty(9)
+    t = np.empty(9)
+    for i in range(diag.shape[0]):
+        if held[i]:
+            _filtered_inverse(filt, diag, i, gdiag, m, t)
+        else:
+            for c in range(9):
+                gdiag[i, c] = inv_diag[i, c]
+    for e in range(entry_spring.shape[0]):
+        k = entry_spring[e]
+        for c in range(5):
+            row_coef[e, c] = coef[k, c]
+    levels = level_start.shape[0] - 1
+    if levels == 0:
+        return
+    n = diag.shape[0]
+    cdiag[:] = 0.0
+    coff[:] = 0.0
+    for i in range(n):
+        if not held[i]:
+            _add_block(cdiag, agg[i], diag, i)
+    for k in range(pairs.shape[0]):
+        if held[pairs[k, 0]] or held[pairs[k, 1]]:
+            continue
+        alpha = coef[k, 0]
+        beta = coef[k, 1]
+        ux = coef[k, 2]
+        uy = coef[k, 3]
+        uz = coef[k, 4]
+        xx = alpha + beta * ux * ux
+        xy = beta * ux * uy
+        xz = beta * ux * uz
+        yy = alpha + beta * uy * uy
+        yz = beta * uy * uz
+        zz = alpha + beta * uz * uz
+        s = spring_slot[k, 0]
+        if s < 0:
+            _add_symmetric(cdiag, agg[pairs[k, 0]], -2.0, xx, xy, xz, yy, yz, zz)
+        else:
+            _add_symmetric(coff, s, -1.0, xx, xy, xz, yy, yz, zz)
+            _add_symmetric(coff, spring_slot[k, 1], -1.0, xx, xy, xz, yy, yz, zz)
+    for i in range(n):
+        if held[i]:
+            continue
+        for slot in range(row_ptr[i], row_ptr[i + 1]):
+            if held[cols[slot]]:
+                continue
+            s = off_slot[slot]
+            if s < 0:
+                _add_block(cdiag, agg[i], off, slot)
+            else:
+                _add_block(coff, s, off, slot)
+    for level in range(levels - 1):
+        for p in range(level_start[level], level_start[level + 1]):
+            parent = cagg[p]
+            _add_block(cdiag, parent, cdiag, p)
+            for e in range(crow_ptr[p], crow_ptr[p + 1]):
+                s = cslot[e]
+                if s < 0:
+                    _add_block(cdiag, parent, coff, e)
+                else:
+                    _add_block(coff, s, coff, e)
+    for p in range(cdiag.shape[0]):
+        _invert_or_zero(cdiag, cinv, p)
+
+
+@device
+def _apply(m, i, vx, vy, vz):
+    return (
+        m[i, 0] * vx + m[i, 1] * vy + m[i, 2] * vz,
+        m[i, 3] * vx + m[i, 4] * vy + m[i, 5] * vz,
+        m[i, 6] * vx + m[i, 7] * vy + m[i, 8] * vz,
+    )
+
+
+@device
+def _fine_rest(i, lo, hi, part, row_other, row_coef, row_ptr, cols, off, x):
+    """``-Σ_j A_ij x_j`` on level 0 over the springs' entries ``lo:hi`` of particle ``i``
+    (blocks ``-C_k``) and its block-CSR entries: all of them (``part`` 0), those with
+    ``j < i`` (1) or ``j > i`` (2)."""
+    sx = 0.0
+    sy = 0.0
+    sz = 0.0
+    for e in range(lo, hi):
+        o = row_other[e]
+        alpha = np.float64(row_coef[e, 0])
+        beta = np.float64(row_coef[e, 1])
+        ux = np.float64(row_coef[e, 2])
+        uy = np.float64(row_coef[e, 3])
+        uz = np.float64(row_coef[e, 4])
+        along = beta * (ux * x[o, 0] + uy * x[o, 1] + uz * x[o, 2])
+        sx += alpha * x[o, 0] + along * ux
+        sy += alpha * x[o, 1] + along * uy
+        sz += alpha * x[o, 2] + along * uz
+    for slot in range(row_ptr[i], row_ptr[i + 1]):
+        j = cols[slot]
+        if (part == 1 and j > i) or (part == 2 and j < i):
+            continue
+        ax, ay, az = _apply(off, slot, x[j, 0], x[j, 1], x[j, 2])
+        sx -= ax
+        sy -= ay
+        sz -= az
+    return sx, sy, sz
+
+
+@device
+def _coarse_rest(p, crow_ptr, ccols, coff, x):
+    """``-Σ_{q≠p} A_pq x_q`` on a coarse level."""
+    sx = 0.0
+    sy = 0.0
+    sz = 0.0
+    for e in range(crow_ptr[p], crow_ptr[p + 1]):
+        q = ccols[e]
+        ax, ay, az = _apply(coff, e, x[q, 0], x[q, 1], x[q, 2])
+        sx -= ax
+        sy -= ay
+        sz -= az
+    return sx, sy, sz
+
+
+@called
+def fine_sweep(backward, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x):
+    """One block Gauss-Seidel sweep on level 0, in particle order or its reverse:
+    ``x_i = G_i (r_i - Σ_{j≠i} A_ij x_j)``."""
+    n = r.shape[0]
+    for t in range(n):
+        i = n - 1 - t if backward else t
+        sx, sy, sz = _fine_rest(
+            i, entry_ptr[i], entry_ptr[i + 1], 0, row_other, row_coef, row_ptr, cols, off, x
+        )
+        x[i, 0], x[i, 1], x[i, 2] = _apply(gdiag, i, r[i, 0] + sx, r[i, 1] + sy, r[i, 2] + sz)
+
+
+@called
+def fine_down(fine, r, x, crhs):
+    """The forward sweep from ``x = 0`` and the residual ``r - A x`` summed into the
+    aggregates' right-hand sides ``crhs``.
+
+    From zero, row ``i`` needs only its entries ``j < i`` (``entry_ptr[i]:row_mid[i]``:
+    the others are still 0), and after the sweep a free particle's residual is
+    ``-Σ_{j>i} A_ij x_j``: its other entries cancel by the sweep's own equation. So the
+    two take one pass over the entries between them, not two.
+    """
+    entry_ptr, row_mid, row_other, row_coef, row_ptr, cols, off, gdiag, held, agg = fine
+    n = r.shape[0]
+    x[:] = 0.0
+    for i in range(n):
+        sx, sy, sz = _fine_rest(
+            i, entry_ptr[i], row_mid[i], 1, row_other, row_coef, row_ptr, cols, off, x
+        )
+        x[i, 0], x[i, 1], x[i, 2] = _apply(gdiag, i, r[i, 0] + sx, r[i, 1] + sy, r[i, 2] + sz)
+    for i in range(n):
+        if held[i]:
+            continue
+        sx, sy, sz = _fine_rest(
+            i, row_mid[i], entry_ptr[i + 1], 2, row_other, row_coef, row_ptr, cols, off, x
+        )
+        a = agg[i]
+        crhs[a, 0] += sx
+        crhs[a, 1] += sy
+        crhs[a, 2] += sz
+
+
+@called
+def coarse_sweep(backward, lo, hi, crow_ptr, ccols, coff, cinv, r, x):
+    """One block Gauss-Seidel sweep over coarse nodes ``lo:hi``."""
+    for t in range(hi - lo):
+        p = hi - 1 - t if backward else lo + t
+        sx, sy, sz = _coarse_rest(p, crow_ptr, ccols, coff, x)
+        x[p, 0], x[p, 1], x[p, 2] = _apply(cinv, p, r[p, 0] + sx, r[p, 1] + sy, r[p, 2] + sz)
+
+
+@called
+def vcycle(fine, coarse, r, x, crhs, cx):
+    """``x = V r``: one symmetric V-cycle from ``x = 0`` (Gauss-Seidel forward before the
+    coarse correction, backward after, so that ``V`` is symmetric positive definite).
+
+    ``fine`` = ``(entry_ptr, row_mid, row_other, row_coef, row_ptr, cols, off, gdiag,
+    held, agg)``, ``coarse`` = ``(level_start, crow_ptr, ccols, coff, cdiag, cinv,
+    cagg)``; ``crhs`` and ``cx`` (coarse nodes, 3) are scratch: each level's right-hand
+    side (the residual of the level above, summed over aggregates) and correction.
+    """
+    entry_ptr, _, row_other, row_coef, row_ptr, cols, off, gdiag, held, agg = fine
+    level_start, crow_ptr, ccols, coff, cdiag, cinv, cagg = coarse
+    n = r.shape[0]
+    levels = level_start.shape[0] - 1
+    if levels == 0:  # too few particles to coarsen: one symmetric Gauss-Seidel sweep
+        x[:] = 0.0
+        fine_sweep(False, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
+        fine_sweep(True, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
+        return
+    crhs[level_start[0] : level_start[1]] = 0.0
+    fine_down(fine, r, x, crhs)
+    for level in range(levels - 1):
+        lo = level_start[level]
+        hi = level_start[level + 1]
+        cx[lo:hi] = 0.0
+        coarse_sweep(False, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
+        crhs[hi : level_start[level + 2]] = 0.0
+        for p in range(lo, hi):
+            sx, sy, sz = _coarse_rest(p, crow_ptr, ccols, coff, cx)
+            ax, ay, az = _apply(cdiag, p, cx[p, 0], cx[p, 1], cx[p, 2])
+            a = cagg[p]
+            crhs[a, 0] += crhs[p, 0] + sx - ax
+            crhs[a, 1] += crhs[p, 1] + sy - ay
+            crhs[a, 2] += crhs[p, 2] + sz - az
+    lo = level_start[levels - 1]
+    hi = level_start[levels]
+    cx[lo:hi] = 0.0
+    for _ in range(COARSEST_SWEEPS):
+        coarse_sweep(False, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
+        coarse_sweep(True, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
+    for level in range(levels - 2, -1, -1):
+        lo = level_start[level]
+        hi = level_start[level + 1]
+        for p in range(lo, hi):
+            a = cagg[p]
+            for d in range(3):
+                cx[p, d] += cx[a, d]
+        coarse_sweep(True, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
+    for i in range(n):
+        if held[i]:
+            continue
+        a = agg[i]
+        for d in range(3):
+            x[i, d] += CORRECTION * cx[a, d]
+    fine_sweep(True, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
+
+
+__all__ = ["aggregate_kernel", "galerkin_kernel", "vcycle"]
