@@ -28,6 +28,9 @@ from .._jit import called, device, serial_kernel
 #: coarsening stalls, unconnected ones, which one sweep solves exactly).
 COARSEST_SWEEPS = 4
 
+#: Cycles that solve level 1 within each cycle of level 0 (see :func:`vcycle`).
+COARSE_CYCLES = 2
+
 #: Scale of the coarse correction on level 0. A piecewise constant interpolation moves an
 #: aggregate as one and misses the energy of its smooth bending, so the plain correction
 #: falls short; scaling it (Blaheta 1986's over-correction, safe below 2) took 64×64 and
@@ -368,26 +371,11 @@ def coarse_sweep(backward, lo, hi, crow_ptr, ccols, coff, cinv, r, x):
 
 
 @called
-def vcycle(fine, coarse, r, x, crhs, cx):
-    """``x = V r``: one symmetric V-cycle from ``x = 0`` (Gauss-Seidel forward before the
-    coarse correction, backward after, so that ``V`` is symmetric positive definite).
-
-    ``fine`` = ``(entry_ptr, row_mid, row_other, row_coef, row_ptr, cols, off, gdiag,
-    held, agg)``, ``coarse`` = ``(level_start, crow_ptr, ccols, coff, cdiag, cinv,
-    cagg)``; ``crhs`` and ``cx`` (coarse nodes, 3) are scratch: each level's right-hand
-    side (the residual of the level above, summed over aggregates) and correction.
-    """
-    entry_ptr, _, row_other, row_coef, row_ptr, cols, off, gdiag, held, agg = fine
+def coarse_cycle(coarse, crhs, cx):
+    """``cx`` on level 1 = one V-cycle from zero for level 1's right-hand side in
+    ``crhs`` (the levels below are scratch); symmetric sweeps on the coarsest level."""
     level_start, crow_ptr, ccols, coff, cdiag, cinv, cagg = coarse
-    n = r.shape[0]
     levels = level_start.shape[0] - 1
-    if levels == 0:  # too few particles to coarsen: one symmetric Gauss-Seidel sweep
-        x[:] = 0.0
-        fine_sweep(False, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
-        fine_sweep(True, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
-        return
-    crhs[level_start[0] : level_start[1]] = 0.0
-    fine_down(fine, r, x, crhs)
     for level in range(levels - 1):
         lo = level_start[level]
         hi = level_start[level + 1]
@@ -415,6 +403,50 @@ def vcycle(fine, coarse, r, x, crhs, cx):
             for d in range(3):
                 cx[p, d] += cx[a, d]
         coarse_sweep(True, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
+
+
+@called
+def vcycle(fine, coarse, r, x, crhs, cx):
+    """``x = V r``: one symmetric V-cycle from ``x = 0`` (Gauss-Seidel forward before the
+    coarse correction, backward after, so that ``V`` is symmetric positive definite).
+
+    Level 1 is solved by :data:`COARSE_CYCLES` cycles of its own (each from the residual
+    the last leaves): a W-cycle's first branch, cheap since level 1 has about a tenth of
+    level 0's entries, and it keeps the iteration count from growing with the levels.
+
+    ``fine`` = ``(entry_ptr, row_mid, row_other, row_coef, row_ptr, cols, off, gdiag,
+    held, agg)``, ``coarse`` = ``(level_start, crow_ptr, ccols, coff, cdiag, cinv,
+    cagg)``; ``crhs`` and ``cx`` (coarse nodes, 3) are scratch: each level's right-hand
+    side (the residual of the level above, summed over aggregates) and correction.
+    """
+    entry_ptr, _, row_other, row_coef, row_ptr, cols, off, gdiag, held, agg = fine
+    level_start, crow_ptr, ccols, coff, cdiag, _, _ = coarse
+    n = r.shape[0]
+    levels = level_start.shape[0] - 1
+    if levels == 0:  # too few particles to coarsen: one symmetric Gauss-Seidel sweep
+        x[:] = 0.0
+        fine_sweep(False, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
+        fine_sweep(True, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
+        return
+    lo = level_start[0]
+    hi = level_start[1]
+    crhs[lo:hi] = 0.0
+    fine_down(fine, r, x, crhs)
+    coarse_cycle(coarse, crhs, cx)
+    if levels > 1 and COARSE_CYCLES > 1:
+        rhs = crhs[lo:hi].copy()
+        for _ in range(COARSE_CYCLES - 1):
+            for p in range(lo, hi):
+                sx, sy, sz = _coarse_rest(p, crow_ptr, ccols, coff, cx)
+                ax, ay, az = _apply(cdiag, p, cx[p, 0], cx[p, 1], cx[p, 2])
+                crhs[p, 0] = rhs[p - lo, 0] + sx - ax
+                crhs[p, 1] = rhs[p - lo, 1] + sy - ay
+                crhs[p, 2] = rhs[p - lo, 2] + sz - az
+            first = cx[lo:hi].copy()
+            coarse_cycle(coarse, crhs, cx)
+            for p in range(lo, hi):
+                for d in range(3):
+                    cx[p, d] += first[p - lo, d]
     for i in range(n):
         if held[i]:
             continue
