@@ -16,15 +16,12 @@ V-cycle of aggregation multigrid per iteration keeps the count about flat.
   aggregate cancels out (springs resist relative motion only).
 - **The cycle**: block Gauss-Seidel forward on the way down, backward on the way up (so
   the preconditioner is symmetric, as conjugate gradients need), symmetric sweeps on the
-  coarsest level. Level 0's sweeps leave out weak springs' off-diagonal blocks (a
-  cloth's bending springs: a third of its entries), so they smooth ``A' = A + Σ_weak
-  C_k ⊗ [[0, 1], [1, 0]]``, which differs from ``A`` by at most the weak springs' share
-  of the diagonal; the cycle is then a symmetric cycle for ``A'`` with coarse matrices
-  of ``A``, still symmetric positive definite. Measured: a 64×64 cloth's cycle 0.42 ->
-  0.32 ms, 3.28 -> 3.30 iterations per step.
+  coarsest level. (Sweeps that leave out weak springs' off-diagonal blocks ran a 64×64
+  cloth's cycle in 0.32 ms instead of 0.42 at the same iteration count, but tripled the
+  iterations of hair, whose bending springs are as weak: not done.)
 
 Measured with ``benchmarks.cloth`` (60 steps from rest at h = 1/60 s, tolerance 1e-2):
-3.3 conjugate gradient iterations per step for a 64×64 cloth and 4.2 for a 128×128 one,
+3.3 conjugate gradient iterations per step for a 64×64 cloth and 4.1 for a 128×128 one,
 against 50.6 and 108 with block Jacobi; 2,000 hair strands 5.9 against 58 (figures in
 docs/performance.md).
 """
@@ -57,10 +54,8 @@ class Hierarchy:
     rows, cols : int64 (k,)
         Block-CSR off-diagonal entries of other forces (row of each entry, its column).
     strong : bool (m,), optional
-        Springs whose ends may join one aggregate on the first level, and whose
-        off-diagonal blocks level 0's Gauss-Seidel sweeps read (default: all). Every
-        block still enters the coarse matrices, and every spring's diagonal part the
-        sweeps' diagonal blocks.
+        Springs whose ends may join one aggregate on the first level (default: all);
+        every block still enters the coarse matrices.
 
     Attributes
     ----------
@@ -68,8 +63,7 @@ class Hierarchy:
         Aggregate (level-1 node) of each particle.
     entry_ptr, row_mid : int64 (n + 1,), (n,)
         Level 0's spring entries by particle: ``entry_ptr[i]:entry_ptr[i + 1]``, those to
-        lower-numbered particles up to ``row_mid[i]``; strong springs only (see
-        ``strong``).
+        lower-numbered particles up to ``row_mid[i]``.
     row_other, entry_spring : int32 (2 m,)
         Each entry's other particle and spring.
     spring_slot : int64 (m, 2)
@@ -141,8 +135,6 @@ class Hierarchy:
         row = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
         other = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
         order = np.lexsort((other, row))
-        if strong is not None:  # weak springs' off-diagonal blocks are left out
-            order = order[np.tile(strong, 2)[order]]
         row, other = row[order], other[order]
         self.entry_ptr = np.concatenate([[0], np.cumsum(np.bincount(row, minlength=n))]).astype(
             np.int64
