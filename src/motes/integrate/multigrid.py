@@ -15,13 +15,14 @@ V-cycle of aggregation multigrid per iteration keeps the count about flat.
   one). A spring between two aggregates becomes a block between them, one inside an
   aggregate cancels out (springs resist relative motion only).
 - **The cycle**: block Gauss-Seidel forward on the way down, backward on the way up (so
-  the preconditioner is symmetric, as conjugate gradients need), symmetric sweeps on the
-  coarsest level. (Sweeps that leave out weak springs' off-diagonal blocks ran a 64×64
-  cloth's cycle in 0.32 ms instead of 0.42 at the same iteration count, but tripled the
-  iterations of hair, whose bending springs are as weak: not done.)
+  the preconditioner is symmetric, as conjugate gradients need), a W-cycle below level
+  0, symmetric sweeps on the coarsest level. (Sweeps that leave out weak springs'
+  off-diagonal blocks ran a 64×64 cloth's cycle in 0.32 ms instead of 0.42 at the same
+  iteration count, but tripled the iterations of hair, whose bending springs are as
+  weak: not done.)
 
 Measured with ``benchmarks.cloth`` (60 steps from rest at h = 1/60 s, tolerance 1e-2):
-3.3 conjugate gradient iterations per step for a 64×64 cloth and 4.1 for a 128×128 one,
+2.9 conjugate gradient iterations per step for a 64×64 cloth and 3.4 for a 128×128 one,
 against 50.6 and 108 with block Jacobi; 2,000 hair strands 5.9 against 58 (figures in
 docs/performance.md).
 """

@@ -28,8 +28,9 @@ from .._jit import called, device, serial_kernel
 #: coarsening stalls, unconnected ones, which one sweep solves exactly).
 COARSEST_SWEEPS = 4
 
-#: Cycles that solve level 1 within each cycle of level 0 (see :func:`vcycle`).
+#: Cycles that solve each coarse level (2: a W-cycle; see :func:`coarse_solve`).
 COARSE_CYCLES = 2
+
 
 #: Scale of the coarse correction on level 0. A piecewise constant interpolation moves an
 #: aggregate as one and misses the energy of its smooth bending, so the plain correction
@@ -370,49 +371,107 @@ def coarse_sweep(backward, lo, hi, crow_ptr, ccols, coff, cinv, r, x):
         x[p, 0], x[p, 1], x[p, 2] = _apply(cinv, p, r[p, 0] + sx, r[p, 1] + sy, r[p, 2] + sz)
 
 
+@device
+def _restrict(lo, hi, crow_ptr, ccols, coff, cdiag, cagg, crhs, cx):
+    """Residuals of nodes ``lo:hi`` summed into their aggregates' right-hand sides."""
+    for p in range(lo, hi):
+        sx, sy, sz = _coarse_rest(p, crow_ptr, ccols, coff, cx)
+        ax, ay, az = _apply(cdiag, p, cx[p, 0], cx[p, 1], cx[p, 2])
+        a = cagg[p]
+        crhs[a, 0] += crhs[p, 0] + sx - ax
+        crhs[a, 1] += crhs[p, 1] + sy - ay
+        crhs[a, 2] += crhs[p, 2] + sz - az
+
+
 @called
-def coarse_cycle(coarse, crhs, cx):
-    """``cx`` on level 1 = one V-cycle from zero for level 1's right-hand side in
-    ``crhs`` (the levels below are scratch); symmetric sweeps on the coarsest level."""
+def coarse_solve(coarse, crhs, cx):
+    """``cx`` on level 1 ≈ its matrix's inverse times its right-hand side in ``crhs``.
+
+    A W-cycle: each level is solved by :data:`COARSE_CYCLES` cycles from zero (the
+    second for what the first left), each a forward sweep, the next level solved the
+    same way, and a backward sweep; the coarsest level by symmetric sweeps. Symmetric
+    positive definite, as conjugate gradients need. Written as a loop over an explicit
+    stack of levels (Numba's disk cache cannot hold a recursive function).
+    """
     level_start, crow_ptr, ccols, coff, cdiag, cinv, cagg = coarse
-    levels = level_start.shape[0] - 1
-    for level in range(levels - 1):
+    last = level_start.shape[0] - 2
+    saved = np.empty_like(cx)  # each level's right-hand side
+    done = np.zeros_like(cx)  # each level's sum of finished cycles
+    count = np.zeros(last + 1, dtype=np.int64)
+    level = 0
+    cx[level_start[0] : level_start[1]] = 0.0
+    saved[level_start[0] : level_start[1]] = crhs[level_start[0] : level_start[1]]
+    down = True
+    while True:
         lo = level_start[level]
         hi = level_start[level + 1]
-        cx[lo:hi] = 0.0
-        coarse_sweep(False, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
-        crhs[hi : level_start[level + 2]] = 0.0
-        for p in range(lo, hi):
-            sx, sy, sz = _coarse_rest(p, crow_ptr, ccols, coff, cx)
-            ax, ay, az = _apply(cdiag, p, cx[p, 0], cx[p, 1], cx[p, 2])
-            a = cagg[p]
-            crhs[a, 0] += crhs[p, 0] + sx - ax
-            crhs[a, 1] += crhs[p, 1] + sy - ay
-            crhs[a, 2] += crhs[p, 2] + sz - az
-    lo = level_start[levels - 1]
-    hi = level_start[levels]
-    cx[lo:hi] = 0.0
-    for _ in range(COARSEST_SWEEPS):
-        coarse_sweep(False, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
-        coarse_sweep(True, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
-    for level in range(levels - 2, -1, -1):
-        lo = level_start[level]
-        hi = level_start[level + 1]
+        if down and level == last:
+            cx[lo:hi] = 0.0
+            for _ in range(COARSEST_SWEEPS):
+                coarse_sweep(False, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
+                coarse_sweep(True, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
+            down = False
+        elif down:
+            if count[level] > 0:  # the next cycle solves for what the last ones left
+                for p in range(lo, hi):
+                    sx, sy, sz = _coarse_rest(p, crow_ptr, ccols, coff, cx)
+                    ax, ay, az = _apply(cdiag, p, cx[p, 0], cx[p, 1], cx[p, 2])
+                    crhs[p, 0] = saved[p, 0] + sx - ax
+                    crhs[p, 1] = saved[p, 1] + sy - ay
+                    crhs[p, 2] = saved[p, 2] + sz - az
+                for p in range(lo, hi):
+                    for d in range(3):
+                        done[p, d] += cx[p, d]
+                        cx[p, d] = 0.0
+            coarse_sweep(False, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
+            nhi = level_start[level + 2]
+            crhs[hi:nhi] = 0.0
+            _restrict(lo, hi, crow_ptr, ccols, coff, cdiag, cagg, crhs, cx)
+            level += 1
+            if level < last:
+                cx[hi:nhi] = 0.0
+                saved[hi:nhi] = crhs[hi:nhi]
+                done[hi:nhi] = 0.0
+                count[level] = 0
+            continue
+        # Back from the level below: prolong its correction, sweep back, and either run
+        # this level's next cycle or hand its sum up.
+        if level == last:
+            if level == 0:
+                return
+            level -= 1
+            lo = level_start[level]
+            hi = level_start[level + 1]
+        else:
+            if count[level] < COARSE_CYCLES:
+                down = True
+                continue
+            for p in range(lo, hi):
+                for d in range(3):
+                    cx[p, d] += done[p, d]
+                    crhs[p, d] = saved[p, d]
+            if level == 0:
+                return
+            level -= 1
+            lo = level_start[level]
+            hi = level_start[level + 1]
         for p in range(lo, hi):
             a = cagg[p]
             for d in range(3):
                 cx[p, d] += cx[a, d]
         coarse_sweep(True, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
+        count[level] += 1
 
 
 @called
 def vcycle(fine, coarse, r, x, crhs, cx):
-    """``x = V r``: one symmetric V-cycle from ``x = 0`` (Gauss-Seidel forward before the
+    """``x = V r``: one symmetric cycle from ``x = 0`` (Gauss-Seidel forward before the
     coarse correction, backward after, so that ``V`` is symmetric positive definite).
 
-    Level 1 is solved by :data:`COARSE_CYCLES` cycles of its own (each from the residual
-    the last leaves): a W-cycle's first branch, cheap since level 1 has about a tenth of
-    level 0's entries, and it keeps the iteration count from growing with the levels.
+    The coarse levels are solved by a W-cycle (:func:`coarse_solve`): cheap, since level
+    1 has about a tenth of level 0's entries, and it keeps the iteration count from
+    growing with the number of levels (a 64×64 cloth 3.95 -> 2.9 iterations per step, a
+    128×128 one 5.2 -> 3.4, against one plain V-cycle).
 
     ``fine`` = ``(entry_ptr, row_mid, row_other, row_coef, row_ptr, cols, off, gdiag,
     held, agg)``, ``coarse`` = ``(level_start, crow_ptr, ccols, coff, cdiag, cinv,
@@ -420,7 +479,7 @@ def vcycle(fine, coarse, r, x, crhs, cx):
     side (the residual of the level above, summed over aggregates) and correction.
     """
     entry_ptr, _, row_other, row_coef, row_ptr, cols, off, gdiag, held, agg = fine
-    level_start, crow_ptr, ccols, coff, cdiag, _, _ = coarse
+    level_start = coarse[0]
     n = r.shape[0]
     levels = level_start.shape[0] - 1
     if levels == 0:  # too few particles to coarsen: one symmetric Gauss-Seidel sweep
@@ -428,25 +487,9 @@ def vcycle(fine, coarse, r, x, crhs, cx):
         fine_sweep(False, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
         fine_sweep(True, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
         return
-    lo = level_start[0]
-    hi = level_start[1]
-    crhs[lo:hi] = 0.0
+    crhs[level_start[0] : level_start[1]] = 0.0
     fine_down(fine, r, x, crhs)
-    coarse_cycle(coarse, crhs, cx)
-    if levels > 1 and COARSE_CYCLES > 1:
-        rhs = crhs[lo:hi].copy()
-        for _ in range(COARSE_CYCLES - 1):
-            for p in range(lo, hi):
-                sx, sy, sz = _coarse_rest(p, crow_ptr, ccols, coff, cx)
-                ax, ay, az = _apply(cdiag, p, cx[p, 0], cx[p, 1], cx[p, 2])
-                crhs[p, 0] = rhs[p - lo, 0] + sx - ax
-                crhs[p, 1] = rhs[p - lo, 1] + sy - ay
-                crhs[p, 2] = rhs[p - lo, 2] + sz - az
-            first = cx[lo:hi].copy()
-            coarse_cycle(coarse, crhs, cx)
-            for p in range(lo, hi):
-                for d in range(3):
-                    cx[p, d] += first[p - lo, d]
+    coarse_solve(coarse, crhs, cx)
     for i in range(n):
         if held[i]:
             continue
