@@ -231,7 +231,7 @@ class _Pattern:
             strong = strong_springs(self.n, self.pairs, self.coef)
             h = self._hierarchy = Hierarchy(self.n, self.pairs, slot_rows, self.cols, strong)
             self.row_coef = np.empty((2 * self.m, 5), dtype=np.float32)
-            self.gdiag = np.empty((self.n, 9))
+            self.gdiag = np.empty((self.n, 6), dtype=np.float32)
             self.cdiag = np.empty((h.nodes, 9))
             self.cinv = np.empty((h.nodes, 9))
             self.coff = np.empty((h.ccols.shape[0], 9))
@@ -312,7 +312,7 @@ def _no_multigrid() -> tuple:
         ints,
         ints,
         blocks,
-        blocks,
+        np.empty((0, 6), dtype=np.float32),
         held,
         ints,
     )

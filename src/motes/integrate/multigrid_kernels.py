@@ -11,7 +11,8 @@ levels in one set of arrays with a global node numbering: level ``l``'s nodes ar
 
 Constraints (Baraff & Witkin's filter ``S``): the preconditioner works on
 ``Ã = S A S + (I - S)``, whose diagonal blocks it inverts as ``G_i = Ã_ii⁻¹ S_i``
-(``gdiag``; ``A_ii⁻¹`` for a free particle). A constrained particle (``held``) takes no
+(``gdiag``; ``A_ii⁻¹`` for a free particle; symmetric, kept as its upper triangle in
+float32). A constrained particle (``held``) takes no
 coarse correction and gives no residual to the coarse levels, so the coarse matrices are
 Galerkin products ``Pᵀ Ã P`` over free particles only.
 
@@ -140,6 +141,34 @@ def _product3(a, b, out):
 
 
 @device
+def _store_symmetric(out, i, xx, xy, xz, yy, yz, zz):
+    """``out[i]`` = the upper triangle of a symmetric 3×3 block, as float32."""
+    out[i, 0] = xx
+    out[i, 1] = xy
+    out[i, 2] = xz
+    out[i, 3] = yy
+    out[i, 4] = yz
+    out[i, 5] = zz
+
+
+@device
+def _apply_symmetric(g, i, vx, vy, vz):
+    """The symmetric block ``g[i]`` (upper triangle, see :func:`_store_symmetric`) times
+    (vx, vy, vz)."""
+    xx = np.float64(g[i, 0])
+    xy = np.float64(g[i, 1])
+    xz = np.float64(g[i, 2])
+    yy = np.float64(g[i, 3])
+    yz = np.float64(g[i, 4])
+    zz = np.float64(g[i, 5])
+    return (
+        xx * vx + xy * vy + xz * vz,
+        xy * vx + yy * vy + yz * vz,
+        xz * vx + yz * vy + zz * vz,
+    )
+
+
+@device
 def _filtered_inverse(filt, diag, i, gdiag, m, t):
     """``gdiag[i] = Ã_ii⁻¹ S_i`` with ``Ã_ii = S_i A_ii S_i + (I - S_i)``: it inverts
     ``S A S`` on ``S``'s range and maps the constrained directions to 0. ``m`` and ``t``
@@ -154,8 +183,7 @@ def _filtered_inverse(filt, diag, i, gdiag, m, t):
     m[8] += 1.0
     _invert_or_zero(m.reshape((1, 9)), t.reshape((1, 9)), 0)
     _product3(t, s, m)
-    for c in range(9):
-        gdiag[i, c] = m[c]
+    _store_symmetric(gdiag, i, m[0], m[1], m[2], m[4], m[5], m[8])
 
 
 @serial_kernel
@@ -205,8 +233,8 @@ def galerkin_kernel(
         if held[i]:
             _filtered_inverse(filt, diag, i, gdiag, m, t)
         else:
-            for c in range(9):
-                gdiag[i, c] = inv_diag[i, c]
+            g = inv_diag[i]
+            _store_symmetric(gdiag, i, g[0], g[1], g[2], g[4], g[5], g[8])
     for e in range(entry_spring.shape[0]):
         k = entry_spring[e]
         for c in range(5):
@@ -329,7 +357,9 @@ def fine_sweep(backward, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdi
         sx, sy, sz = _fine_rest(
             i, entry_ptr[i], entry_ptr[i + 1], 0, row_other, row_coef, row_ptr, cols, off, x
         )
-        x[i, 0], x[i, 1], x[i, 2] = _apply(gdiag, i, r[i, 0] + sx, r[i, 1] + sy, r[i, 2] + sz)
+        x[i, 0], x[i, 1], x[i, 2] = _apply_symmetric(
+            gdiag, i, r[i, 0] + sx, r[i, 1] + sy, r[i, 2] + sz
+        )
 
 
 @called
@@ -349,7 +379,9 @@ def fine_down(fine, r, x, crhs):
         sx, sy, sz = _fine_rest(
             i, entry_ptr[i], row_mid[i], 1, row_other, row_coef, row_ptr, cols, off, x
         )
-        x[i, 0], x[i, 1], x[i, 2] = _apply(gdiag, i, r[i, 0] + sx, r[i, 1] + sy, r[i, 2] + sz)
+        x[i, 0], x[i, 1], x[i, 2] = _apply_symmetric(
+            gdiag, i, r[i, 0] + sx, r[i, 1] + sy, r[i, 2] + sz
+        )
     for i in range(n):
         if held[i]:
             continue
