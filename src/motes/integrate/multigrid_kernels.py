@@ -420,8 +420,10 @@ def coarse_solve(coarse, crhs, cx):
     """``cx`` on level 1 ≈ its matrix's inverse times its right-hand side in ``crhs``.
 
     A W-cycle: each level is solved by :data:`COARSE_CYCLES` cycles from zero (the
-    second for what the first left), each a forward sweep, the next level solved the
-    same way, and a backward sweep; the coarsest level by symmetric sweeps. Symmetric
+    second for what the first left; one where the next level is more than a quarter of
+    this one), each a forward sweep, the next level solved the same way, and a backward
+    sweep; the coarsest level by symmetric sweeps (one sweep, exact, where its nodes are
+    unconnected). Symmetric
     positive definite, as conjugate gradients need. Written as a loop over an explicit
     stack of levels (Numba's disk cache cannot hold a recursive function).
     """
@@ -439,9 +441,12 @@ def coarse_solve(coarse, crhs, cx):
         hi = level_start[level + 1]
         if down and level == last:
             cx[lo:hi] = 0.0
-            for _ in range(COARSEST_SWEEPS):
+            if crow_ptr[lo] == crow_ptr[hi]:  # unconnected nodes: one sweep is exact
                 coarse_sweep(False, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
-                coarse_sweep(True, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
+            else:
+                for _ in range(COARSEST_SWEEPS):
+                    coarse_sweep(False, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
+                    coarse_sweep(True, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
             down = False
         elif down:
             if count[level] > 0:  # the next cycle solves for what the last ones left
@@ -475,7 +480,11 @@ def coarse_solve(coarse, crhs, cx):
             lo = level_start[level]
             hi = level_start[level + 1]
         else:
-            if count[level] < COARSE_CYCLES:
+            # A second cycle only where the next level is at most a quarter of this one
+            # (a cloth's levels shrink 7-9x); chains of hair halve per level, and a
+            # W-cycle's cost would grow with every level.
+            shrink = 4 * (level_start[level + 2] - hi) <= hi - lo
+            if count[level] < (COARSE_CYCLES if shrink else 1):
                 down = True
                 continue
             for p in range(lo, hi):
