@@ -50,7 +50,7 @@ def test_viscosity_and_cohesion_exchange_conserves_momentum(rng):
     masses = water.masses.astype(np.float32)
     delta = np.full(len(water), d["delta0"], np.float32)
     normals = np.empty((3, len(water)), np.float32)
-    kernels.surface_normals(*s.positions, lists.offsets, lists.indices, s.phase, delta,
+    kernels.surface_normals(*s.positions, *lists.ranges, s.phase, delta,
                              d["h"], normals)  # fmt: skip
     assert np.abs(normals).max() > 0.3  # the surface has normals: curvature is on
     coefficients = np.array([d["h"], 1 / 240, m.xsph, m.viscosity,
@@ -60,7 +60,7 @@ def test_viscosity_and_cohesion_exchange_conserves_momentum(rng):
     ulp = 0.0
     for _ in range(30):
         out = np.empty_like(v)
-        kernels.exchange(*s.positions, *v, lists.offsets, lists.indices, s.phase, masses,
+        kernels.exchange(*s.positions, *v, *lists.ranges, s.phase, masses,
                           delta, normals, d["cohesion"], coefficients, out)  # fmt: skip
         ulp = max(ulp, float(np.abs(out).max()) * 2.0**-23)
         v = out

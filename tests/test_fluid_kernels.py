@@ -112,7 +112,7 @@ def test_density_lambda_and_correction_match_the_twin(rng):
     delta, lam = np.empty(n, np.float32), np.empty(n, np.float32)
     scale = sph.wall_scale(0.05, h)
     kernels.density_lambda(
-        *pf, lists.offsets, lists.indices, weight, rows, h, 0.05, scale, 1 / delta0, 30.0,
+        *pf, *lists.ranges, weight, rows, h, 0.05, scale, 1 / delta0, 30.0,
         delta, lam,
     )  # fmt: skip
     ref_delta, ref_lam = naive.density_lambda(
@@ -125,7 +125,7 @@ def test_density_lambda_and_correction_match_the_twin(rng):
     out = np.empty((3, n), np.float32)
     radius = 0.025
     kernels.correction(
-        *pf, lists.offsets, lists.indices, weight, lam, rows, h, 0.05, scale, 1 / delta0,
+        *pf, *lists.ranges, weight, lam, rows, h, 0.05, scale, 1 / delta0,
         1e-4, 1e-3, radius, out,
     )  # fmt: skip
     p64 = pf.T.astype(float)
@@ -201,9 +201,9 @@ def test_exchange_matches_the_twin_and_the_lecture(rng):
     coefficients = np.array([h, 0.004, 0.05, 3.0, 1 / (2 * 0.04**2), 20.0, 1000.0])
     out = np.empty((3, n), np.float32)
     pf, vf = p.T.astype(np.float32), v.T.astype(np.float32)
-    args = (lists.offsets, lists.indices, phase, mass.astype(np.float32), delta.astype(np.float32))
+    args = (*lists.ranges, phase, mass.astype(np.float32), delta.astype(np.float32))
     normals = np.empty((3, n), np.float32)
-    kernels.surface_normals(*pf, lists.offsets, lists.indices, phase, args[-1], h, normals)
+    kernels.surface_normals(*pf, *lists.ranges, phase, args[-1], h, normals)
     ref_normals = naive.surface_normals(
         pf.T.astype(float), phase, delta.astype(np.float32).astype(float), h
     )
@@ -315,14 +315,12 @@ def test_vorticity_and_confinement_match_the_twins(rng):
     lists, _ = csr(p, h)
     pf, vf = p.T.astype(np.float32), v.T.astype(np.float32)
     omega = np.empty((3, n), np.float32)
-    kernels.vorticity(*pf, *vf, lists.offsets, lists.indices, delta.astype(np.float32), h, omega)
+    kernels.vorticity(*pf, *vf, *lists.ranges, delta.astype(np.float32), h, omega)
     ref = naive.vorticity(pf.T.astype(float), vf.T.astype(float), delta, h)
     # float32 sums of ~30 terms of either sign: round-off ~1e-6 of the largest term.
     assert_allclose(omega.T, ref, rtol=1e-4, atol=1e-5 * np.abs(ref).max())
     out = np.empty((3, n), np.float32)
-    kernels.confinement(
-        *pf, *vf, lists.offsets, lists.indices, delta.astype(np.float32), omega, h, 0.01, out
-    )
+    kernels.confinement(*pf, *vf, *lists.ranges, delta.astype(np.float32), omega, h, 0.01, out)
     want = naive.confinement(pf.T.astype(float), vf.T.astype(float), delta, omega.T, h, 0.01)
     assert_allclose(out.T, want, rtol=1e-4, atol=1e-5 * np.abs(want).max())
 
@@ -339,7 +337,7 @@ def test_vorticity_of_a_rigid_rotation_is_twice_its_angular_velocity():
     lists, _ = csr(p.T.astype(float), h)
     omega = np.empty_like(p)
     delta = np.full(p.shape[1], delta0, np.float32)
-    kernels.vorticity(*p, *v, lists.offsets, lists.indices, delta, h, omega)
+    kernels.vorticity(*p, *v, *lists.ranges, delta, h, omega)
     inner = np.all(np.abs(p - 0.25) < 0.25 - h, axis=0)
     # The SPH curl of a linear field is the field's curl times the discrete gradient's
     # response to a linear field (0.947 at h = 2 spacings), up to float32 round-off.

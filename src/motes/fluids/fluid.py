@@ -330,7 +330,7 @@ class Fluid:
         kernels.project(*predicted, rows, radius, depth)
 
         # Sort into the structure's order: neighbours then sit in nearby memory.
-        offsets, nbr, order = sorted_neighbors(self._index, predicted, h)
+        begin, end, nbr, order = sorted_neighbors(self._index, predicted, h)
         s.permute(order)
         predicted = np.ascontiguousarray(predicted[:, order])
         depth = depth[order]
@@ -343,14 +343,14 @@ class Fluid:
         inv_delta0 = 1.0 / d["delta0"]
         for _ in range(m.iterations):
             kernels.density_lambda(
-                *predicted, offsets, nbr, weight, rows, h, m.spacing, d["wall_scale"],
+                *predicted, begin, end, nbr, weight, rows, h, m.spacing, d["wall_scale"],
                 inv_delta0, d["eps"], delta, lam,
             )  # fmt: skip
             # With reacting walls the push-out runs as its own pass, so that what it
             # moves can be counted (same result: each particle's push is its own).
             reacting = bool(self.reactions)
             kernels.correction(
-                *predicted, offsets, nbr, weight, lam, rows, h, m.spacing, d["wall_scale"],
+                *predicted, begin, end, nbr, weight, lam, rows, h, m.spacing, d["wall_scale"],
                 inv_delta0, d["tensile_k"], d["inv_wq"], _NO_PUSH if reacting else radius,
                 spare,
             )  # fmt: skip
@@ -386,19 +386,19 @@ class Fluid:
         )
         if m.vorticity > 0:
             omega = np.empty((3, n), np.float32)
-            kernels.vorticity(*s.positions, *s.velocities, offsets, nbr, delta, h, omega)
+            kernels.vorticity(*s.positions, *s.velocities, begin, end, nbr, delta, h, omega)
             confined = np.empty_like(s.velocities)
             kernels.confinement(
-                *s.positions, *s.velocities, offsets, nbr, delta, omega, h,
+                *s.positions, *s.velocities, begin, end, nbr, delta, omega, h,
                 dt * m.vorticity * m.spacing, confined,
             )  # fmt: skip
             s.velocities = confined
         normals = np.zeros((3, n), np.float32)
         if d["cohesion"].max() > 0:
-            kernels.surface_normals(*s.positions, offsets, nbr, s.phase, delta, h, normals)
+            kernels.surface_normals(*s.positions, begin, end, nbr, s.phase, delta, h, normals)
         out = np.empty_like(s.velocities)
         kernels.exchange(
-            *s.positions, *s.velocities, offsets, nbr, s.phase, masses, delta, normals,
+            *s.positions, *s.velocities, begin, end, nbr, s.phase, masses, delta, normals,
             d["cohesion"], coefficients, out,
         )  # fmt: skip
         s.velocities = out

@@ -1,7 +1,8 @@
 """Compiled kernels of the position-based fluid solver.
 
-Every kernel gathers over a particle's own neighbour list (CSR ``offsets``/``nbr``, in
-the grid's sorted slots), so no two threads write the same particle. Pairwise exchanges
+Every kernel gathers over a particle's own neighbour list (``nbr[begin[i]:end[i]]``, in
+the grid's sorted slots: CSR lists, or the rows a grid search left in its buffer), so no
+two threads write the same particle. Pairwise exchanges
 (viscosity, XSPH, cohesion, phase repulsion) read the velocities of the step before and
 evaluate each pair's term from quantities symmetric in ``i`` and ``j``: the term of
 ``j`` on ``i`` is exactly minus that of ``i`` on ``j``, so momentum is conserved to
@@ -137,7 +138,7 @@ def gather(nbr, first, size, x, y, z, value, far, near):
 
 @parallel_kernel
 def density_lambda(
-    px, py, pz, offsets, nbr, weight, rows, h, spacing, wall_scale, inv_delta0, eps, delta, lam
+    px, py, pz, begin, end, nbr, weight, rows, h, spacing, wall_scale, inv_delta0, eps, delta, lam
 ):
     """Number density and the Lagrange multiplier of each density constraint.
 
@@ -160,9 +161,9 @@ def density_lambda(
             density = self_density
             gx = gy = gz = 0.0
             sum_g2 = 0.0
-            first, end = np.uint64(offsets[i]), np.uint64(offsets[i + 1])
-            while first < end:
-                size = min(end - first, step)
+            first, last = np.uint64(begin[i]), np.uint64(end[i])
+            while first < last:
+                size = min(last - first, step)
                 # Gathered, computed and summed in three loops: the middle one vectorises
                 # (see the module docstring).
                 count = gather(nbr, first, size, px, py, pz, weight, far, near)
@@ -193,7 +194,7 @@ def density_lambda(
 
 @parallel_kernel
 def correction(
-    px, py, pz, offsets, nbr, weight, lam, rows, h, spacing, wall_scale, inv_delta0, k_corr,
+    px, py, pz, begin, end, nbr, weight, lam, rows, h, spacing, wall_scale, inv_delta0, k_corr,
     inv_wq, radius, out,
 ):  # fmt: skip
     """Corrected positions ``p_i + Δp_i`` [m] (Macklin & Müller 2013, eqs. 12-14), pushed
@@ -215,9 +216,9 @@ def correction(
             far = (xi + np.float32(2.0 * h), yi, zi)
             li = lam[i]
             ax = ay = az = 0.0
-            first, end = np.uint64(offsets[i]), np.uint64(offsets[i + 1])
-            while first < end:
-                size = min(end - first, step)
+            first, last = np.uint64(begin[i]), np.uint64(end[i])
+            while first < last:
+                size = min(last - first, step)
                 # Gathered, computed and summed in three loops: the middle one vectorises.
                 count = gather(nbr, first, size, px, py, pz, lam, far, near)
                 for t in range(count):
@@ -263,7 +264,7 @@ def cohesion_spline(r, h):
 
 @parallel_kernel
 def exchange(
-    px, py, pz, vx, vy, vz, offsets, nbr, phase, mass, delta, normals, gamma, coefficients, out
+    px, py, pz, vx, vy, vz, begin, end, nbr, phase, mass, delta, normals, gamma, coefficients, out
 ):
     """Pairwise velocity exchanges over neighbours within ``h``; ``out`` (3, n) = new v.
 
@@ -303,9 +304,9 @@ def exchange(
             di = delta[i]
             far = (xi + np.float32(2.0 * h), yi, zi)
             fx = fy = fz = 0.0  # momentum change [kg m/s]
-            first, end = np.uint64(offsets[i]), np.uint64(offsets[i + 1])
-            while first < end:
-                size = min(end - first, step)
+            first, last = np.uint64(begin[i]), np.uint64(end[i])
+            while first < last:
+                size = min(last - first, step)
                 # Gathered, computed and summed in three loops (see the module docstring);
                 # padding entries have mass 0 and lie beyond h: all their terms are 0.
                 count = gather(nbr, first, size, px, py, pz, delta, far, near)
@@ -366,7 +367,7 @@ def exchange(
 
 
 @parallel_kernel
-def surface_normals(px, py, pz, offsets, nbr, phase, delta, h, out):
+def surface_normals(px, py, pz, begin, end, nbr, phase, delta, h, out):
     """Akinci et al. 2013, eq. 5: ``n_i = h Σ_j ∇W_poly6(p_i - p_j) / δ_j`` [-].
 
     Over neighbours of the same phase (each liquid has its own surface), with the volume
@@ -382,7 +383,7 @@ def surface_normals(px, py, pz, offsets, nbr, phase, delta, h, out):
             xi, yi, zi = px[i], py[i], pz[i]
             pi = phase[i]
             ax = ay = az = 0.0
-            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
+            for k in range(np.uint64(begin[i]), np.uint64(end[i])):
                 j = nbr[k]
                 rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
                 d = max(h2 - (rx * rx + ry * ry + rz * rz), 0.0)
@@ -517,7 +518,7 @@ def cell_density(sx, sy, sz, cell_start, origin, inv_cell, dims, h, out):
 
 
 @parallel_kernel
-def vorticity(px, py, pz, vx, vy, vz, offsets, nbr, delta, h, out):
+def vorticity(px, py, pz, vx, vy, vz, begin, end, nbr, delta, h, out):
     """Vorticity ``ω_i = Σ_j V_j ∇_i W_ij × (v_j - v_i)`` [1/s] (Macklin & Müller 2013,
     eq. 15, with the volume ``V_j = 1 / δ_j``: the SPH curl, exact to the kernel's
     discretisation for a rigid rotation, ``ω = 2Ω``); spiky gradients, ``out`` (3, n).
@@ -529,7 +530,7 @@ def vorticity(px, py, pz, vx, vy, vz, offsets, nbr, delta, h, out):
             xi, yi, zi = px[i], py[i], pz[i]
             ui, wi, si = vx[i], vy[i], vz[i]
             ax = ay = az = 0.0
-            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
+            for k in range(np.uint64(begin[i]), np.uint64(end[i])):
                 j = nbr[k]
                 rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
                 g = spiky_gradient_scale(math.sqrt(rx * rx + ry * ry + rz * rz), h) / delta[j]
@@ -543,7 +544,7 @@ def vorticity(px, py, pz, vx, vy, vz, offsets, nbr, delta, h, out):
 
 
 @parallel_kernel
-def confinement(px, py, pz, vx, vy, vz, offsets, nbr, delta, omega, h, scale, out):
+def confinement(px, py, pz, vx, vy, vz, begin, end, nbr, delta, omega, h, scale, out):
     """Velocities after vorticity confinement (Fedkiw, Stam & Jensen 2001, eqs. 9-11, as
     Macklin & Müller 2013, eq. 16 use it): ``v_i + scale (N_i × ω_i)`` with
     ``N = η / |η|``, ``η_i = Σ_j V_j (|ω_j| - |ω_i|) ∇_i W_ij`` (the SPH gradient of
@@ -557,7 +558,7 @@ def confinement(px, py, pz, vx, vy, vz, offsets, nbr, delta, omega, h, scale, ou
             xi, yi, zi = px[i], py[i], pz[i]
             oi = math.sqrt(omega[0, i] ** 2 + omega[1, i] ** 2 + omega[2, i] ** 2)
             ex = ey = ez = 0.0
-            for k in range(np.uint64(offsets[i]), np.uint64(offsets[i + 1])):
+            for k in range(np.uint64(begin[i]), np.uint64(end[i])):
                 j = nbr[k]
                 rx, ry, rz = xi - px[j], yi - py[j], zi - pz[j]
                 g = spiky_gradient_scale(math.sqrt(rx * rx + ry * ry + rz * rz), h) / delta[j]

@@ -122,6 +122,22 @@ class UniformGrid:
         s = self.sorted_positions
         return self._query(s, radius, True, slots, grow)
 
+    def neighbor_rows(self, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every point's neighbours within ``radius`` [m] as sorted slots, in rows that are
+        not packed together: ``(begin, end, entries)``, row ``s`` (slot ``s``) being
+        ``entries[begin[s]:end[s]]``, the same entries in the same order as
+        ``neighbors(radius, slots=True)``.
+
+        It skips the copy into CSR form (6 ms of a 100,000-particle fluid step): the rows
+        stay where the search wrote them, in the grid's buffer, valid until its next
+        query. ``begin``, ``end``: int64 (n,); ``entries``: int32.
+        """
+        self._query(self.sorted_positions, radius, True, True, True, pack=False)
+        n = self.count
+        stride = self._buffer.shape[1]
+        begin = np.arange(n, dtype=np.int64) * stride
+        return begin, begin + self._found[:n], self._buffer[:n].reshape(-1)
+
     def query(self, points, radius: float, *, grow: bool = True) -> Neighbors:
         """Neighbours (point indices) within ``radius`` [m] of other ``points`` (3, m)."""
         q = _rows("points", points)
@@ -178,7 +194,8 @@ class UniformGrid:
         return sorted_pairs(self.neighbors(distance))
 
     # -- internals -------------------------------------------------------------------
-    def _query(self, q, radius, exclude_self, slots, grow) -> Neighbors:
+    def _query(self, q, radius, exclude_self, slots, grow, pack=True) -> Neighbors | None:
+        """Search into the buffer; with ``pack``, return the rows in CSR form."""
         radius = _validate.positive("radius", radius)
         nq = q.shape[1]
         if nq == 0 or self.count == 0:
@@ -201,6 +218,8 @@ class UniformGrid:
             if not grow:
                 raise NeighborOverflow(most, self.capacity)
             self.capacity = most + most // 4
+        if not pack:
+            return None
         if exclude_self and not slots:
             row_of = np.empty(nq, np.int64)
             row_of[self.order] = np.arange(nq)

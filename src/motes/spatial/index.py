@@ -68,15 +68,17 @@ def spatial_index(structure: str, *, cell_size: float | None = None, leaf_size: 
 
 
 def sorted_neighbors(index, positions: np.ndarray, radius: float):
-    """Build ``index`` (a spatial structure) on ``positions`` (3, n) and return CSR lists
-    within ``radius`` [m] numbered in the structure's sorted order: ``(offsets, indices,
-    order)``, where row ``r`` and entry values are sorted slots and ``order[r]`` is the
-    point in slot ``r``. A solver that permutes its particles by ``order`` then reads
-    neighbours from nearby memory."""
+    """Build ``index`` (a spatial structure) on ``positions`` (3, n) and return the lists
+    within ``radius`` [m] numbered in the structure's sorted order: ``(begin, end,
+    indices, order)``, where row ``r`` is ``indices[begin[r]:end[r]]``, rows and entry
+    values are sorted slots, and ``order[r]`` is the point in slot ``r``. A solver that
+    permutes its particles by ``order`` then reads neighbours from nearby memory. A
+    uniform grid's rows stay in its search buffer (:meth:`UniformGrid.neighbor_rows`),
+    valid until its next query."""
     index.build(positions)
     if isinstance(index, UniformGrid):
-        lists = index.neighbors(radius, slots=True)
-        return lists.offsets, lists.indices, index.order
+        begin, end, indices = index.neighbor_rows(radius)
+        return begin, end, indices, index.order
     lists = index.neighbors(radius)
     order = index.order
     slot_of = np.empty(order.shape[0], np.int64)
@@ -87,4 +89,4 @@ def sorted_neighbors(index, positions: np.ndarray, radius: float):
     starts = np.repeat(lists.offsets[:-1][order], counts)
     within = np.arange(int(offsets[-1])) - np.repeat(offsets[:-1], counts)
     indices = slot_of[lists.indices[starts + within]].astype(np.int32)
-    return offsets, indices, order
+    return offsets[:-1], offsets[1:], indices, order

@@ -40,6 +40,12 @@ class Neighbors:
     indices: np.ndarray
 
     @property
+    def ranges(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(begin, end, indices)``: row ``i`` is ``indices[begin[i]:end[i]]``, the form
+        the fluid kernels take (views, no copy)."""
+        return self.offsets[:-1], self.offsets[1:], self.indices
+
+    @property
     def counts(self) -> np.ndarray:
         """Neighbours per row, int64, shape (rows,)."""
         return np.diff(self.offsets)
