@@ -61,6 +61,20 @@ def test_slots_index_the_sorted_order(rng):
         assert set(order[by_slot.row(s)].tolist()) == set(by_point.row(order[s]).tolist())
 
 
+def test_neighbor_rows_are_the_slot_lists_left_in_place(rng):
+    pts = uniform(rng, 3000)
+    grid = UniformGrid(0.1).build(pts)
+    by_slot = grid.neighbors(0.1, slots=True)
+    begin, end, entries = grid.neighbor_rows(0.1)
+    assert_array_equal(end - begin, by_slot.counts)
+    assert (begin[1:] >= end[:-1]).all()  # rows do not overlap
+    for s in range(3000):
+        assert_array_equal(entries[begin[s] : end[s]], by_slot.row(s))  # same order too
+    # The CSR lists' ranges are the same form.
+    b, e, idx = by_slot.ranges
+    assert_array_equal(idx[b[5] : e[5]], by_slot.row(5))
+
+
 def test_points_exactly_at_the_radius_are_neighbors():
     # A lattice of spacing 1 with radius 1: the six axis neighbours are exactly at r, and
     # the float64 test d² <= r² includes them, as cKDTree does.
