@@ -27,6 +27,7 @@ import numba
 import numpy as np
 
 from .._jit import block_bounds, block_count, device, parallel_kernel, serial_kernel
+from .blocks import apply, inverse3
 from .multigrid_kernels import vcycle
 
 
@@ -108,25 +109,6 @@ def gather_rhs_kernel(rhs, incident_ptr, incident, out):
             out[i, 2] += sz
 
 
-@device
-def _inverse3(m, out, i):
-    """``out[i]`` = inverse of the row-major 3×3 ``m`` (cofactors / determinant)."""
-    c0 = m[4] * m[8] - m[5] * m[7]
-    c1 = m[5] * m[6] - m[3] * m[8]
-    c2 = m[3] * m[7] - m[4] * m[6]
-    det = m[0] * c0 + m[1] * c1 + m[2] * c2
-    inv = 1.0 / det
-    out[i, 0] = c0 * inv
-    out[i, 1] = (m[2] * m[7] - m[1] * m[8]) * inv
-    out[i, 2] = (m[1] * m[5] - m[2] * m[4]) * inv
-    out[i, 3] = c1 * inv
-    out[i, 4] = (m[0] * m[8] - m[2] * m[6]) * inv
-    out[i, 5] = (m[2] * m[3] - m[0] * m[5]) * inv
-    out[i, 6] = c2 * inv
-    out[i, 7] = (m[1] * m[6] - m[0] * m[7]) * inv
-    out[i, 8] = (m[0] * m[4] - m[1] * m[3]) * inv
-
-
 @parallel_kernel
 def assemble_kernel(
     mass,
@@ -186,7 +168,7 @@ def assemble_kernel(
                     acc[c] += sources[s, c]
             for c in range(9):
                 diag[i, c] = acc[c]
-            _inverse3(acc, inv_diag, i)
+            inverse3(acc, inv_diag, i)
             for slot in range(row_ptr[i], row_ptr[i + 1]):
                 for c in range(9):
                     acc[c] = 0.0
@@ -199,20 +181,10 @@ def assemble_kernel(
 
 
 @device
-def _apply(m, i, vx, vy, vz):
-    """Row-major 3×3 block ``m[i]`` times (vx, vy, vz)."""
-    return (
-        m[i, 0] * vx + m[i, 1] * vy + m[i, 2] * vz,
-        m[i, 3] * vx + m[i, 4] * vy + m[i, 5] * vz,
-        m[i, 6] * vx + m[i, 7] * vy + m[i, 8] * vz,
-    )
-
-
-@device
 def _filter(filt, held, i, vx, vy, vz):
     """``S_i v``: the identity for free particles (most of them), the projection else."""
     if held[i]:
-        return _apply(filt, i, vx, vy, vz)
+        return apply(filt, i, vx, vy, vz)
     return vx, vy, vz
 
 
@@ -221,11 +193,11 @@ def _product(diag, off, row_ptr, cols, pairs, coef, v, out):
     """``out = A v`` (serial: the spring loop adds into both of its ends)."""
     n = v.shape[0]
     for i in range(n):
-        sx, sy, sz = _apply(diag, i, v[i, 0], v[i, 1], v[i, 2])
+        sx, sy, sz = apply(diag, i, v[i, 0], v[i, 1], v[i, 2])
         # Unsigned indices: Numba then skips negative-index wraparound (_jit.block_bounds).
         for slot in range(np.uint64(row_ptr[i]), np.uint64(row_ptr[i + 1])):
             j = np.uint64(cols[slot])
-            ax, ay, az = _apply(off, slot, v[j, 0], v[j, 1], v[j, 2])
+            ax, ay, az = apply(off, slot, v[j, 0], v[j, 1], v[j, 2])
             sx += ax
             sy += ay
             sz += az
@@ -267,7 +239,7 @@ def _precondition(multigrid, inv_diag, filt, held, fine, coarse, r, s, crhs, cx)
         vcycle(fine, coarse, r, s, crhs, cx)
     else:
         for i in range(n):
-            px, py, pz = _apply(inv_diag, i, r[i, 0], r[i, 1], r[i, 2])
+            px, py, pz = apply(inv_diag, i, r[i, 0], r[i, 1], r[i, 2])
             s[i, 0], s[i, 1], s[i, 2] = _filter(filt, held, i, px, py, pz)
     return _dot(r, s)
 

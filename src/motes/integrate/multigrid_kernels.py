@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import called, device, serial_kernel
+from .blocks import apply, inverse3
 
 #: Symmetric Gauss-Seidel sweep pairs on the coarsest level: a few nodes (or, where
 #: coarsening stalls, unconnected ones, which one sweep solves exactly).
@@ -111,25 +112,13 @@ def _add_block(out, p, source, s):
 @device
 def _invert_or_zero(m, out, p):
     """``out[p]`` = inverse of the 3×3 ``m[p]``; zero where ``m[p]`` is zero (a coarse
-    node made of constrained particles only, which never receives a residual)."""
-    c0 = m[p, 4] * m[p, 8] - m[p, 5] * m[p, 7]
-    c1 = m[p, 5] * m[p, 6] - m[p, 3] * m[p, 8]
-    c2 = m[p, 3] * m[p, 7] - m[p, 4] * m[p, 6]
-    det = m[p, 0] * c0 + m[p, 1] * c1 + m[p, 2] * c2
-    if det == 0.0:
+    node made of constrained particles only, which never receives a residual). Coarse
+    diagonal blocks are sums of positive semi-definite blocks: a zero trace means zero."""
+    if m[p, 0] + m[p, 4] + m[p, 8] == 0.0:
         for c in range(9):
             out[p, c] = 0.0
-        return
-    inv = 1.0 / det
-    out[p, 0] = c0 * inv
-    out[p, 1] = (m[p, 2] * m[p, 7] - m[p, 1] * m[p, 8]) * inv
-    out[p, 2] = (m[p, 1] * m[p, 5] - m[p, 2] * m[p, 4]) * inv
-    out[p, 3] = c1 * inv
-    out[p, 4] = (m[p, 0] * m[p, 8] - m[p, 2] * m[p, 6]) * inv
-    out[p, 5] = (m[p, 2] * m[p, 3] - m[p, 0] * m[p, 5]) * inv
-    out[p, 6] = c2 * inv
-    out[p, 7] = (m[p, 1] * m[p, 6] - m[p, 0] * m[p, 7]) * inv
-    out[p, 8] = (m[p, 0] * m[p, 4] - m[p, 1] * m[p, 3]) * inv
+    else:
+        inverse3(m[p], out, p)
 
 
 @device
@@ -181,7 +170,7 @@ def _filtered_inverse(filt, diag, i, gdiag, m, t):
     m[0] += 1.0
     m[4] += 1.0
     m[8] += 1.0
-    _invert_or_zero(m.reshape((1, 9)), t.reshape((1, 9)), 0)
+    inverse3(m, t.reshape((1, 9)), 0)
     _product3(t, s, m)
     _store_symmetric(gdiag, i, m[0], m[1], m[2], m[4], m[5], m[8])
 
@@ -294,15 +283,6 @@ def galerkin_kernel(
 
 
 @device
-def _apply(m, i, vx, vy, vz):
-    return (
-        m[i, 0] * vx + m[i, 1] * vy + m[i, 2] * vz,
-        m[i, 3] * vx + m[i, 4] * vy + m[i, 5] * vz,
-        m[i, 6] * vx + m[i, 7] * vy + m[i, 8] * vz,
-    )
-
-
-@device
 def _fine_rest(i, lo, hi, part, row_other, row_coef, row_ptr, cols, off, x):
     """``-Σ_j A_ij x_j`` on level 0 over the springs' entries ``lo:hi`` of particle ``i``
     (blocks ``-C_k``) and its block-CSR entries: all of them (``part`` 0), those with
@@ -325,7 +305,7 @@ def _fine_rest(i, lo, hi, part, row_other, row_coef, row_ptr, cols, off, x):
         j = cols[slot]
         if (part == 1 and j > i) or (part == 2 and j < i):
             continue
-        ax, ay, az = _apply(off, slot, x[j, 0], x[j, 1], x[j, 2])
+        ax, ay, az = apply(off, slot, x[j, 0], x[j, 1], x[j, 2])
         sx -= ax
         sy -= ay
         sz -= az
@@ -340,7 +320,7 @@ def _coarse_rest(p, crow_ptr, ccols, coff, x):
     sz = 0.0
     for e in range(crow_ptr[p], crow_ptr[p + 1]):
         q = ccols[e]
-        ax, ay, az = _apply(coff, e, x[q, 0], x[q, 1], x[q, 2])
+        ax, ay, az = apply(coff, e, x[q, 0], x[q, 1], x[q, 2])
         sx -= ax
         sy -= ay
         sz -= az
@@ -400,7 +380,7 @@ def coarse_sweep(backward, lo, hi, crow_ptr, ccols, coff, cinv, r, x):
     for t in range(hi - lo):
         p = hi - 1 - t if backward else lo + t
         sx, sy, sz = _coarse_rest(p, crow_ptr, ccols, coff, x)
-        x[p, 0], x[p, 1], x[p, 2] = _apply(cinv, p, r[p, 0] + sx, r[p, 1] + sy, r[p, 2] + sz)
+        x[p, 0], x[p, 1], x[p, 2] = apply(cinv, p, r[p, 0] + sx, r[p, 1] + sy, r[p, 2] + sz)
 
 
 @device
@@ -408,7 +388,7 @@ def _restrict(lo, hi, crow_ptr, ccols, coff, cdiag, cagg, crhs, cx):
     """Residuals of nodes ``lo:hi`` summed into their aggregates' right-hand sides."""
     for p in range(lo, hi):
         sx, sy, sz = _coarse_rest(p, crow_ptr, ccols, coff, cx)
-        ax, ay, az = _apply(cdiag, p, cx[p, 0], cx[p, 1], cx[p, 2])
+        ax, ay, az = apply(cdiag, p, cx[p, 0], cx[p, 1], cx[p, 2])
         a = cagg[p]
         crhs[a, 0] += crhs[p, 0] + sx - ax
         crhs[a, 1] += crhs[p, 1] + sy - ay
@@ -452,7 +432,7 @@ def coarse_solve(coarse, crhs, cx):
             if count[level] > 0:  # the next cycle solves for what the last ones left
                 for p in range(lo, hi):
                     sx, sy, sz = _coarse_rest(p, crow_ptr, ccols, coff, cx)
-                    ax, ay, az = _apply(cdiag, p, cx[p, 0], cx[p, 1], cx[p, 2])
+                    ax, ay, az = apply(cdiag, p, cx[p, 0], cx[p, 1], cx[p, 2])
                     crhs[p, 0] = saved[p, 0] + sx - ax
                     crhs[p, 1] = saved[p, 1] + sy - ay
                     crhs[p, 2] = saved[p, 2] + sz - az

@@ -1,0 +1,35 @@
+"""3×3 blocks stored row-major as rows of 9 numbers: the compiled helpers the implicit
+solve and its multigrid preconditioner share."""
+
+from __future__ import annotations
+
+from .._jit import device
+
+
+@device
+def apply(m, i, vx, vy, vz):
+    """Row-major 3×3 block ``m[i]`` times (vx, vy, vz)."""
+    return (
+        m[i, 0] * vx + m[i, 1] * vy + m[i, 2] * vz,
+        m[i, 3] * vx + m[i, 4] * vy + m[i, 5] * vz,
+        m[i, 6] * vx + m[i, 7] * vy + m[i, 8] * vz,
+    )
+
+
+@device
+def inverse3(m, out, i):
+    """``out[i]`` = inverse of the row-major 3×3 ``m`` (cofactors / determinant)."""
+    c0 = m[4] * m[8] - m[5] * m[7]
+    c1 = m[5] * m[6] - m[3] * m[8]
+    c2 = m[3] * m[7] - m[4] * m[6]
+    det = m[0] * c0 + m[1] * c1 + m[2] * c2
+    inv = 1.0 / det
+    out[i, 0] = c0 * inv
+    out[i, 1] = (m[2] * m[7] - m[1] * m[8]) * inv
+    out[i, 2] = (m[1] * m[5] - m[2] * m[4]) * inv
+    out[i, 3] = c1 * inv
+    out[i, 4] = (m[0] * m[8] - m[2] * m[6]) * inv
+    out[i, 5] = (m[2] * m[3] - m[0] * m[5]) * inv
+    out[i, 6] = c2 * inv
+    out[i, 7] = (m[1] * m[6] - m[0] * m[7]) * inv
+    out[i, 8] = (m[0] * m[4] - m[1] * m[3]) * inv
