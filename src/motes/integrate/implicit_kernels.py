@@ -26,7 +26,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .._jit import block_bounds, block_count, device, parallel_kernel, serial_kernel
+from .._jit import block_bounds, block_count, called, device, parallel_kernel, serial_kernel
 from .blocks import apply, inverse3
 from .multigrid_kernels import vcycle
 
@@ -229,7 +229,7 @@ def product_kernel(diag, off, row_ptr, cols, pairs, coef, v, out):
     _product(diag, off, row_ptr, cols, pairs, coef, v, out)
 
 
-@device
+@called
 def _precondition(multigrid, inv_diag, filt, held, fine, coarse, r, s, crhs, cx):
     """``s = P⁻¹ r`` in the free directions: ``S`` times block Jacobi's ``diag(A)⁻¹ r``,
     or one multigrid V-cycle (:func:`~motes.integrate.multigrid_kernels.vcycle`).

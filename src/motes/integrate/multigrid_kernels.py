@@ -90,6 +90,25 @@ def aggregate_kernel(indptr, indices, agg):
 
 
 @device
+def _fill(a, lo, hi, value):
+    """``a[lo:hi] = value`` for ``(n, 3)`` rows, as a loop: a slice assignment compiles
+    shape checks and their error messages (seconds per kernel, for nothing)."""
+    for p in range(lo, hi):
+        a[p, 0] = value
+        a[p, 1] = value
+        a[p, 2] = value
+
+
+@device
+def _copy(source, target, lo, hi):
+    """``target[lo:hi] = source[lo:hi]`` for ``(n, 3)`` rows (see :func:`_fill`)."""
+    for p in range(lo, hi):
+        target[p, 0] = source[p, 0]
+        target[p, 1] = source[p, 1]
+        target[p, 2] = source[p, 2]
+
+
+@device
 def _add_symmetric(out, p, sign, xx, xy, xz, yy, yz, zz):
     """``out[p] += sign`` times the symmetric 3×3 block of the six given entries."""
     out[p, 0] += sign * xx
@@ -354,7 +373,7 @@ def fine_down(fine, r, x, crhs):
     """
     entry_ptr, row_mid, row_other, row_coef, row_ptr, cols, off, gdiag, held, agg = fine
     n = r.shape[0]
-    x[:] = 0.0
+    _fill(x, 0, x.shape[0], 0.0)
     for i in range(n):
         sx, sy, sz = _fine_rest(
             i, entry_ptr[i], row_mid[i], 1, row_other, row_coef, row_ptr, cols, off, x
@@ -409,18 +428,19 @@ def coarse_solve(coarse, crhs, cx):
     """
     level_start, crow_ptr, ccols, coff, cdiag, cinv, cagg = coarse
     last = level_start.shape[0] - 2
-    saved = np.empty_like(cx)  # each level's right-hand side
-    done = np.zeros_like(cx)  # each level's sum of finished cycles
+    saved = np.empty(cx.shape)  # each level's right-hand side
+    done = np.empty(cx.shape)  # each level's sum of finished cycles
     count = np.zeros(last + 1, dtype=np.int64)
     level = 0
-    cx[level_start[0] : level_start[1]] = 0.0
-    saved[level_start[0] : level_start[1]] = crhs[level_start[0] : level_start[1]]
+    _fill(cx, level_start[0], level_start[1], 0.0)
+    _fill(done, level_start[0], level_start[1], 0.0)
+    _copy(crhs, saved, level_start[0], level_start[1])
     down = True
     while True:
         lo = level_start[level]
         hi = level_start[level + 1]
         if down and level == last:
-            cx[lo:hi] = 0.0
+            _fill(cx, lo, hi, 0.0)
             if crow_ptr[lo] == crow_ptr[hi]:  # unconnected nodes: one sweep is exact
                 coarse_sweep(False, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
             else:
@@ -442,13 +462,13 @@ def coarse_solve(coarse, crhs, cx):
                         cx[p, d] = 0.0
             coarse_sweep(False, lo, hi, crow_ptr, ccols, coff, cinv, crhs, cx)
             nhi = level_start[level + 2]
-            crhs[hi:nhi] = 0.0
+            _fill(crhs, hi, nhi, 0.0)
             _restrict(lo, hi, crow_ptr, ccols, coff, cdiag, cagg, crhs, cx)
             level += 1
             if level < last:
-                cx[hi:nhi] = 0.0
-                saved[hi:nhi] = crhs[hi:nhi]
-                done[hi:nhi] = 0.0
+                _fill(cx, hi, nhi, 0.0)
+                _copy(crhs, saved, hi, nhi)
+                _fill(done, hi, nhi, 0.0)
                 count[level] = 0
             continue
         # Back from the level below: prolong its correction, sweep back, and either run
@@ -504,11 +524,11 @@ def vcycle(fine, coarse, r, x, crhs, cx):
     n = r.shape[0]
     levels = level_start.shape[0] - 1
     if levels == 0:  # too few particles to coarsen: one symmetric Gauss-Seidel sweep
-        x[:] = 0.0
+        _fill(x, 0, x.shape[0], 0.0)
         fine_sweep(False, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
         fine_sweep(True, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
         return
-    crhs[level_start[0] : level_start[1]] = 0.0
+    _fill(crhs, level_start[0], level_start[1], 0.0)
     fine_down(fine, r, x, crhs)
     coarse_solve(coarse, crhs, cx)
     for i in range(n):
