@@ -108,6 +108,7 @@ grid = [6, 5]
         ("pin = [[9, 0]]", "body[0].pin[0]", "inside 5 x 6"),
         ("pin_rows = [7]", "body[0].pin_rows[0]", "must be <= 4"),
         ("tolerance = 2.0", "body[0].tolerance", "must be <= 1"),
+        ("preconditioner = 'ilu'", "body[0].preconditioner", "must be one of"),
         ("wind = { velocity = [1, 0] }", "body[0].wind.velocity", "array of 3"),
         ("wind = { velocity = [1, 0, 0], gust = 2 }", "body[0].wind.gust", "must be <= 1"),
         ("stripes = ['#ff0000', 'blue']", "body[0].stripes[1]", "colour"),
@@ -124,6 +125,13 @@ def test_cloth_body_mistakes_name_the_key(extra, path, message):
     with pytest.raises(SceneError, match=message) as error:
         load_scene(text)
     assert error.value.path == path
+
+
+def test_a_scene_picks_the_solve_s_preconditioner():
+    default = load_scene(BASE)
+    jacobi = load_scene(BASE + "preconditioner = 'jacobi'\n")
+    assert default.bodies["c"].cloth.solver.preconditioner == "multigrid"
+    assert jacobi.bodies["c"].cloth.solver.preconditioner == "jacobi"
 
 
 def test_cloth_from_a_mesh_file_and_hair_mistakes(tmp_path):

@@ -16,7 +16,7 @@ import numpy as np
 from ..cloth import Airflow, Cloth, Keyframes, SpringFamily
 from ..collide import TriangleMeshCollider
 from ..hair import Hair, Head
-from ..integrate.implicit import ImplicitEuler, SolverError
+from ..integrate.implicit import PRECONDITIONERS, ImplicitEuler, SolverError
 from ..io.entry import Entry
 from ..render import geometry
 from ..render.shading import Material
@@ -64,6 +64,7 @@ def _solver(table: Table, tolerance: float) -> ImplicitEuler:
         ImplicitEuler,
         tolerance=table.get("tolerance", number(0.0, 1.0, low_open=True), tolerance),
         max_iterations=table.get("max_iterations", integer(1, 100_000), 500),
+        preconditioner=table.get("preconditioner", one_of(*PRECONDITIONERS), "multigrid"),
     )
 
 
