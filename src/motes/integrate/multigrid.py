@@ -3,11 +3,12 @@ r"""Aggregation multigrid: the implicit solve's preconditioner.
 Block Jacobi leaves conjugate gradients an iteration count that grows with the cloth's
 resolution (the condition number of ``A = M - h² ∂f/∂x`` grows as the particle masses
 shrink: a 64×64 cloth took 51 iterations per step, a 128×128 one 108). One symmetric
-V-cycle of aggregation multigrid per iteration keeps the count about flat.
+cycle of aggregation multigrid per iteration keeps the count about flat.
 
-- **Levels** (built once per sparsity pattern, in NumPy): particles joined by a spring
-  or a Jacobian block are neighbours; greedy aggregation (Vaněk, Mandel & Brezina 1996)
-  groups each node with its neighbours, and the aggregates are the next level's nodes,
+- **Levels** (built once per sparsity pattern, in NumPy): particles joined by a strong
+  spring (:func:`strong_springs`) or a Jacobian block are neighbours; greedy
+  aggregation (Vaněk, Mandel & Brezina 1996) groups each node with its neighbours, and
+  the aggregates are the next level's nodes,
   until a level has at most :data:`COARSEST` nodes or stops shrinking (unconnected
   nodes: strands of hair once each is one node).
 - **Coarse matrices** (every step, compiled): Galerkin products ``Pᵀ A P`` with ``P``
@@ -23,7 +24,7 @@ V-cycle of aggregation multigrid per iteration keeps the count about flat.
 
 Measured with ``benchmarks.cloth`` (60 steps from rest at h = 1/60 s, tolerance 1e-2):
 2.9 conjugate gradient iterations per step for a 64×64 cloth and 3.4 for a 128×128 one,
-against 50.6 and 108 with block Jacobi; 2,000 hair strands 5.9 against 58 (figures in
+against 50.6 and 108 with block Jacobi; 2,000 hair strands 5.8 against 58 (figures in
 docs/performance.md).
 """
 

@@ -2,8 +2,8 @@ r"""Compiled pieces of the aggregation multigrid preconditioner (:mod:`.multigri
 
 Level 0 is the implicit system ``A`` itself, in the form of
 :mod:`~motes.integrate.implicit_kernels`: a diagonal block per particle, the springs'
-blocks ``-C_k = -(α I + β u uᵀ)`` (read row by row through the incidence list, from
-``row_coef``, the springs' five numbers gathered in incidence order once per step), and
+blocks ``-C_k = -(α I + β u uᵀ)`` (read row by row from ``row_coef``, the springs' five
+numbers copied once per step into each particle's entries, sorted by the other end), and
 other forces' blocks in block-CSR form. The coarse levels are block-CSR matrices, all
 levels in one set of arrays with a global node numbering: level ``l``'s nodes are
 ``level_start[l]:level_start[l + 1]``, node ``p``'s off-diagonal blocks
@@ -12,9 +12,9 @@ levels in one set of arrays with a global node numbering: level ``l``'s nodes ar
 Constraints (Baraff & Witkin's filter ``S``): the preconditioner works on
 ``Ã = S A S + (I - S)``, whose diagonal blocks it inverts as ``G_i = Ã_ii⁻¹ S_i``
 (``gdiag``; ``A_ii⁻¹`` for a free particle; symmetric, kept as its upper triangle in
-float32). A constrained particle (``held``) takes no
-coarse correction and gives no residual to the coarse levels, so the coarse matrices are
-Galerkin products ``Pᵀ Ã P`` over free particles only.
+float32). A constrained particle (``held``) takes no coarse correction and gives no
+residual to the coarse levels, so the coarse matrices are Galerkin products ``Pᵀ Ã P``
+over free particles only.
 
 Everything here is serial: it runs inside the serial conjugate gradient loop.
 """
@@ -32,7 +32,6 @@ COARSEST_SWEEPS = 4
 
 #: Cycles that solve each coarse level (2: a W-cycle; see :func:`coarse_solve`).
 COARSE_CYCLES = 2
-
 
 #: Scale of the coarse correction on level 0. A piecewise constant interpolation moves an
 #: aggregate as one and misses the energy of its smooth bending, so the plain correction
