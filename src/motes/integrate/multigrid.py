@@ -8,9 +8,9 @@ cycle of aggregation multigrid per iteration keeps the count about flat.
 - **Levels** (built once per sparsity pattern, in NumPy): particles joined by a strong
   spring (:func:`strong_springs`) or a Jacobian block are neighbours; greedy
   aggregation (Vaněk, Mandel & Brezina 1996) groups each node with its neighbours, and
-  the aggregates are the next level's nodes,
-  until a level has at most :data:`COARSEST` nodes or stops shrinking (unconnected
-  nodes: strands of hair once each is one node).
+  the aggregates are the next level's nodes, until a level has at most
+  :data:`COARSEST` nodes or stops shrinking (unconnected nodes: strands of hair once
+  each is one node).
 - **Coarse matrices** (every step, compiled): Galerkin products ``Pᵀ A P`` with ``P``
   the piecewise constant interpolation (unsmoothed aggregation: an aggregate moves as
   one). A spring between two aggregates becomes a block between them, one inside an
