@@ -256,6 +256,13 @@ def test_system_product_matches_the_dense_matrix():
         rtol=1e-12,
         atol=1e-12 * np.abs(dense).max(),
     )
+    rows = np.array([7, 0, 3], dtype=np.int64)  # a few rows alone (the pins' impulse)
+    np.testing.assert_allclose(
+        solver._pattern.product_rows(rows, w),
+        (dense @ w.ravel()).reshape(10, 3)[rows],
+        rtol=1e-12,
+        atol=1e-12 * np.abs(dense).max(),
+    )
     # And the step solved that system: A Δv = b with b = h (f0 + h ∂f/∂x v0).
     f, _, _ = spring_terms(x, v, pairs, rest, ks, kd)
     f0 = f.ravel() + (-0.2 * v.T).ravel()

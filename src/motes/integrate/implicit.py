@@ -49,6 +49,7 @@ from .implicit_kernels import (
     gather_rhs_kernel,
     pcg_kernel,
     product_kernel,
+    rows_product_kernel,
     spring_system_kernel,
 )
 from .multigrid import Hierarchy, strong_springs
@@ -294,6 +295,15 @@ class _Pattern:
         """``A v`` for an (n, 3) float64 vector."""
         out = np.empty_like(v)
         product_kernel(self.diag, self.off, self.row_ptr, self.cols, self.pairs, self.coef, v, out)
+        return out
+
+    def product_rows(self, rows: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``(A v)[rows]`` (k, 3) for an (n, 3) float64 vector and int64 ``rows``."""
+        out = np.empty((rows.shape[0], 3))
+        rows_product_kernel(
+            rows, self.diag, self.off, self.row_ptr, self.cols, self.pairs, self.coef,
+            self.incident_ptr, self.incident, v, out,
+        )  # fmt: skip
         return out
 
 
@@ -564,7 +574,7 @@ class ImplicitEuler:
         impulse = np.zeros(3)
         if constraints is not None and not broke:
             idx = np.flatnonzero(held)
-            e = pattern.product(dv)[idx] - b[idx]
+            e = pattern.product_rows(idx, dv) - b[idx]
             impulse = constraints.free_part(idx, e, complement=True).sum(axis=0)
         report = SolveReport(int(iterations), residual, converged, impulse)
         self.last_report = report

@@ -229,6 +229,38 @@ def product_kernel(diag, off, row_ptr, cols, pairs, coef, v, out):
     _product(diag, off, row_ptr, cols, pairs, coef, v, out)
 
 
+@serial_kernel
+def rows_product_kernel(
+    rows, diag, off, row_ptr, cols, pairs, coef, incident_ptr, incident, v, out
+):  # fmt: skip
+    """``out[k] = (A v)[rows[k]]``: a few rows of the product, each read through the
+    particle's springs (``incident``) and block-CSR entries, not the whole product."""
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        sx, sy, sz = apply(diag, i, v[i, 0], v[i, 1], v[i, 2])
+        for slot in range(row_ptr[i], row_ptr[i + 1]):
+            j = cols[slot]
+            ax, ay, az = apply(off, slot, v[j, 0], v[j, 1], v[j, 2])
+            sx += ax
+            sy += ay
+            sz += az
+        for e in range(incident_ptr[i], incident_ptr[i + 1]):
+            spring = incident[e] >> 1
+            o = pairs[spring, 1 - (incident[e] & 1)]
+            alpha = coef[spring, 0]
+            beta = coef[spring, 1]
+            ux = coef[spring, 2]
+            uy = coef[spring, 3]
+            uz = coef[spring, 4]
+            along = beta * (ux * v[o, 0] + uy * v[o, 1] + uz * v[o, 2])
+            sx -= alpha * v[o, 0] + along * ux
+            sy -= alpha * v[o, 1] + along * uy
+            sz -= alpha * v[o, 2] + along * uz
+        out[k, 0] = sx
+        out[k, 1] = sy
+        out[k, 2] = sz
+
+
 @called
 def _precondition(multigrid, inv_diag, filt, held, fine, coarse, r, s, crhs, cx):
     """``s = P⁻¹ r`` in the free directions: ``S`` times block Jacobi's ``diag(A)⁻¹ r``,
@@ -368,5 +400,6 @@ __all__ = [
     "gather_rhs_kernel",
     "pcg_kernel",
     "product_kernel",
+    "rows_product_kernel",
     "spring_system_kernel",
 ]
