@@ -3,6 +3,8 @@ solve and its multigrid preconditioner share."""
 
 from __future__ import annotations
 
+import numpy as np
+
 from .._jit import device
 
 
@@ -33,3 +35,16 @@ def inverse3(m, out, i):
     out[i, 6] = c2 * inv
     out[i, 7] = (m[1] * m[6] - m[0] * m[7]) * inv
     out[i, 8] = (m[0] * m[4] - m[1] * m[3]) * inv
+
+
+@device
+def spring_apply(coef, k, v, o):
+    """``C_k v_o`` for a spring's block ``C_k = α I + β u uᵀ``, ``coef[k] = (α, β, u_x,
+    u_y, u_z)`` (float64 or float32 rows; the product is float64)."""
+    alpha = np.float64(coef[k, 0])
+    beta = np.float64(coef[k, 1])
+    ux = np.float64(coef[k, 2])
+    uy = np.float64(coef[k, 3])
+    uz = np.float64(coef[k, 4])
+    along = beta * (ux * v[o, 0] + uy * v[o, 1] + uz * v[o, 2])
+    return alpha * v[o, 0] + along * ux, alpha * v[o, 1] + along * uy, alpha * v[o, 2] + along * uz

@@ -241,8 +241,8 @@ class _Pattern:
         return self._hierarchy
 
     def multigrid(self, filt: np.ndarray, held: np.ndarray) -> tuple:
-        """This step's multigrid operands for ``pcg_kernel``: the fine level's blocks in
-        incidence order, ``G_i = Ã_ii⁻¹ S_i`` and the coarse matrices (after assembly)."""
+        """This step's multigrid operands for ``pcg_kernel``: the fine level's blocks row
+        by row, ``G_i = Ã_ii⁻¹ S_i`` and the coarse matrices (after assembly)."""
         h = self.hierarchy
         galerkin_kernel(
             filt,
@@ -357,7 +357,7 @@ class ImplicitEuler:
         last iterate (``last_report`` says so). A breakdown (``A`` not positive
         definite, or non-finite values) always raises.
     preconditioner : {"multigrid", "jacobi"}
-        ``"multigrid"``: one aggregation multigrid V-cycle per iteration
+        ``"multigrid"``: one aggregation multigrid cycle per iteration
         (:mod:`motes.integrate.multigrid`), whose iteration count stays about flat as a
         cloth gets finer; ``"jacobi"``: the inverse of ``A``'s diagonal blocks, cheaper
         per iteration but needing iterations in proportion to the cloth's side. The

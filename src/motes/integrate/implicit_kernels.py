@@ -27,7 +27,7 @@ import numba
 import numpy as np
 
 from .._jit import block_bounds, block_count, called, device, parallel_kernel, serial_kernel
-from .blocks import apply, inverse3
+from .blocks import apply, inverse3, spring_apply
 from .multigrid_kernels import vcycle
 
 
@@ -207,20 +207,15 @@ def _product(diag, off, row_ptr, cols, pairs, coef, v, out):
     for k in range(pairs.shape[0]):
         a = np.uint64(pairs[k, 0])
         b = np.uint64(pairs[k, 1])
-        alpha = coef[k, 0]
-        beta = coef[k, 1]
-        ux = coef[k, 2]
-        uy = coef[k, 3]
-        uz = coef[k, 4]
         # Off-diagonal blocks -C_k: out_a -= C_k v_b, out_b -= C_k v_a.
-        pb = beta * (ux * v[b, 0] + uy * v[b, 1] + uz * v[b, 2])
-        pa = beta * (ux * v[a, 0] + uy * v[a, 1] + uz * v[a, 2])
-        out[a, 0] -= alpha * v[b, 0] + pb * ux
-        out[a, 1] -= alpha * v[b, 1] + pb * uy
-        out[a, 2] -= alpha * v[b, 2] + pb * uz
-        out[b, 0] -= alpha * v[a, 0] + pa * ux
-        out[b, 1] -= alpha * v[a, 1] + pa * uy
-        out[b, 2] -= alpha * v[a, 2] + pa * uz
+        cx, cy, cz = spring_apply(coef, k, v, b)
+        out[a, 0] -= cx
+        out[a, 1] -= cy
+        out[a, 2] -= cz
+        cx, cy, cz = spring_apply(coef, k, v, a)
+        out[b, 0] -= cx
+        out[b, 1] -= cy
+        out[b, 2] -= cz
 
 
 @serial_kernel
@@ -246,16 +241,10 @@ def rows_product_kernel(
             sz += az
         for e in range(incident_ptr[i], incident_ptr[i + 1]):
             spring = incident[e] >> 1
-            o = pairs[spring, 1 - (incident[e] & 1)]
-            alpha = coef[spring, 0]
-            beta = coef[spring, 1]
-            ux = coef[spring, 2]
-            uy = coef[spring, 3]
-            uz = coef[spring, 4]
-            along = beta * (ux * v[o, 0] + uy * v[o, 1] + uz * v[o, 2])
-            sx -= alpha * v[o, 0] + along * ux
-            sy -= alpha * v[o, 1] + along * uy
-            sz -= alpha * v[o, 2] + along * uz
+            cx, cy, cz = spring_apply(coef, spring, v, pairs[spring, 1 - (incident[e] & 1)])
+            sx -= cx
+            sy -= cy
+            sz -= cz
         out[k, 0] = sx
         out[k, 1] = sy
         out[k, 2] = sz
@@ -264,7 +253,7 @@ def rows_product_kernel(
 @called
 def _precondition(multigrid, inv_diag, filt, held, fine, coarse, r, s, crhs, cx):
     """``s = P⁻¹ r`` in the free directions: ``S`` times block Jacobi's ``diag(A)⁻¹ r``,
-    or one multigrid V-cycle (:func:`~motes.integrate.multigrid_kernels.vcycle`).
+    or one multigrid cycle (:func:`~motes.integrate.multigrid_kernels.vcycle`).
     Returns ``rᵀ s``."""
     n = r.shape[0]
     if multigrid:
@@ -319,7 +308,7 @@ def pcg_kernel(
     ``(n, 9)``: one symmetric projection per particle, applied where ``held`` (n,) is
     True, the identity elsewhere) removes the constrained directions and ``z`` holds the
     prescribed velocity changes there. The preconditioner is one aggregation multigrid
-    V-cycle where ``multigrid`` is True (``fine``, ``coarse``, ``crhs``, ``cx``: see
+    cycle where ``multigrid`` is True (``fine``, ``coarse``, ``crhs``, ``cx``: see
     :func:`~motes.integrate.multigrid_kernels.vcycle`), else the inverse of ``A``'s
     diagonal blocks (block Jacobi). ``start`` is the first iterate: it must equal ``z``
     in the constrained directions (any free part is a warm start). Stops when the

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import called, device, serial_kernel
-from .blocks import apply, inverse3
+from .blocks import apply, inverse3, spring_apply
 
 #: Symmetric Gauss-Seidel sweep pairs on the coarsest level: a few nodes (or, where
 #: coarsening stalls, unconnected ones, which one sweep solves exactly).
@@ -309,16 +309,10 @@ def _fine_rest(i, lo, hi, part, row_other, row_coef, row_ptr, cols, off, x):
     sy = 0.0
     sz = 0.0
     for e in range(lo, hi):
-        o = row_other[e]
-        alpha = np.float64(row_coef[e, 0])
-        beta = np.float64(row_coef[e, 1])
-        ux = np.float64(row_coef[e, 2])
-        uy = np.float64(row_coef[e, 3])
-        uz = np.float64(row_coef[e, 4])
-        along = beta * (ux * x[o, 0] + uy * x[o, 1] + uz * x[o, 2])
-        sx += alpha * x[o, 0] + along * ux
-        sy += alpha * x[o, 1] + along * uy
-        sz += alpha * x[o, 2] + along * uz
+        cx, cy, cz = spring_apply(row_coef, e, x, row_other[e])
+        sx += cx
+        sy += cy
+        sz += cz
     for slot in range(row_ptr[i], row_ptr[i + 1]):
         j = cols[slot]
         if (part == 1 and j > i) or (part == 2 and j < i):
@@ -346,14 +340,18 @@ def _coarse_rest(p, crow_ptr, ccols, coff, x):
 
 
 @called
-def fine_sweep(backward, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x):
-    """One block Gauss-Seidel sweep on level 0, in particle order or its reverse:
-    ``x_i = G_i (r_i - Σ_{j≠i} A_ij x_j)``."""
+def fine_sweep(backward, part, fine, r, x):
+    """One block Gauss-Seidel sweep on level 0 (``fine``: see :func:`vcycle`), in particle
+    order or its reverse: ``x_i = G_i (r_i - Σ_{j≠i} A_ij x_j)``, over all of a row's
+    entries (``part`` 0) or those with ``j < i`` (1: a forward sweep from ``x = 0``, where
+    the others are 0)."""
+    entry_ptr, row_mid, row_other, row_coef, row_ptr, cols, off, gdiag, _, _ = fine
     n = r.shape[0]
     for t in range(n):
         i = n - 1 - t if backward else t
+        stop = row_mid[i] if part == 1 else entry_ptr[i + 1]
         sx, sy, sz = _fine_rest(
-            i, entry_ptr[i], entry_ptr[i + 1], 0, row_other, row_coef, row_ptr, cols, off, x
+            i, entry_ptr[i], stop, part, row_other, row_coef, row_ptr, cols, off, x
         )
         x[i, 0], x[i, 1], x[i, 2] = _apply_symmetric(
             gdiag, i, r[i, 0] + sx, r[i, 1] + sy, r[i, 2] + sz
@@ -370,16 +368,10 @@ def fine_down(fine, r, x, crhs):
     ``-Σ_{j>i} A_ij x_j``: its other entries cancel by the sweep's own equation. So the
     two take one pass over the entries between them, not two.
     """
-    entry_ptr, row_mid, row_other, row_coef, row_ptr, cols, off, gdiag, held, agg = fine
+    entry_ptr, row_mid, row_other, row_coef, row_ptr, cols, off, _, held, agg = fine
     n = r.shape[0]
     _fill(x, 0, x.shape[0], 0.0)
-    for i in range(n):
-        sx, sy, sz = _fine_rest(
-            i, entry_ptr[i], row_mid[i], 1, row_other, row_coef, row_ptr, cols, off, x
-        )
-        x[i, 0], x[i, 1], x[i, 2] = _apply_symmetric(
-            gdiag, i, r[i, 0] + sx, r[i, 1] + sy, r[i, 2] + sz
-        )
+    fine_sweep(False, 1, fine, r, x)
     for i in range(n):
         if held[i]:
             continue
@@ -518,14 +510,15 @@ def vcycle(fine, coarse, r, x, crhs, cx):
     cagg)``; ``crhs`` and ``cx`` (coarse nodes, 3) are scratch: each level's right-hand
     side (the residual of the level above, summed over aggregates) and correction.
     """
-    entry_ptr, _, row_other, row_coef, row_ptr, cols, off, gdiag, held, agg = fine
+    held = fine[8]
+    agg = fine[9]
     level_start = coarse[0]
     n = r.shape[0]
     levels = level_start.shape[0] - 1
     if levels == 0:  # too few particles to coarsen: one symmetric Gauss-Seidel sweep
         _fill(x, 0, x.shape[0], 0.0)
-        fine_sweep(False, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
-        fine_sweep(True, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
+        fine_sweep(False, 0, fine, r, x)
+        fine_sweep(True, 0, fine, r, x)
         return
     _fill(crhs, level_start[0], level_start[1], 0.0)
     fine_down(fine, r, x, crhs)
@@ -536,7 +529,7 @@ def vcycle(fine, coarse, r, x, crhs, cx):
         a = agg[i]
         for d in range(3):
             x[i, d] += CORRECTION * cx[a, d]
-    fine_sweep(True, entry_ptr, row_other, row_coef, row_ptr, cols, off, gdiag, r, x)
+    fine_sweep(True, 0, fine, r, x)
 
 
 __all__ = ["aggregate_kernel", "galerkin_kernel", "vcycle"]
