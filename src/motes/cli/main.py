@@ -655,8 +655,10 @@ def _run(args) -> int:
     from ..io.frames import open_writer
     from ..scene import SceneError, load_scene
     from ..scene.overrides import parse_assignment
+    from .compile_ahead import CompileAhead, kernels_cached
     from .progress import Progress
 
+    first_run = not args.no_render and not kernels_cached()
     try:
         overrides = dict(parse_assignment(text) for text in args.overrides)
         scene = load_scene(
@@ -728,11 +730,24 @@ def _run(args) -> int:
         if exporter is not None:
             outputs.enter_context(exporter)
         outputs.callback(progress.close)
+        # On a first run, a second process compiles the drawing kernels meanwhile.
+        ahead = None
+        if output is not None:
+            ahead = CompileAhead.start(
+                args.scene, seed=args.seed, overrides=args.overrides, resolution=resolution,
+                check_finite=args.check_finite, first_run=first_run,
+            )  # fmt: skip
+        if ahead is not None:
+            outputs.callback(ahead.close)
         try:
             # A .png or .exr keeps only the last frame: render just that one.
             for index in range(frames):
                 scene.advance()
-                if writer is not None and (not still or index == frames - 1):
+                drawn = writer is not None and (not still or index == frames - 1)
+                if ahead is not None and (drawn or (exr and index == frames - 1)):
+                    ahead.finish(lambda: scene.renderer(resolution).draw_particles(scene))
+                    ahead = None
+                if drawn:
                     writer.write(_picture(args, scene, resolution))
                 if exr and index == frames - 1:
                     renderer = scene.renderer(resolution)

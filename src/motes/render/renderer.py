@@ -186,6 +186,24 @@ class Renderer:
         layer = None
         if volumes:
             layer = draw_volumes(frame, self.camera, volumes, shadowing, froxels=bool(items))
+        self._draw_items(frame, items, shaded, layer)
+        if transparent:
+            frame.alpha = self._coverage(frame, items)
+            if layer is not None:
+                frame.alpha = layer.cover(frame.alpha)
+        if self.bloom is not None:  # light: it covers nothing (the alpha stays)
+            self.bloom.apply(frame.color, exposure=self.exposure)
+        return frame
+
+    def draw_particles(self, frame: Frame, systems=()) -> None:
+        """Draw ``systems`` (as in :meth:`render_hdr`) into ``frame`` alone: no geometry,
+        lights or bloom; lit particles take their own colours. ``motes run`` calls it to
+        compile the particle kernels early (:mod:`motes.cli.compile_ahead`)."""
+        self._draw_items(frame, self._draw_order(systems), None, None)
+
+    def _draw_items(self, frame: Frame, items, shaded, layer) -> None:
+        """Draw ``items`` (:meth:`_draw_order`), lit through ``shaded`` where their style
+        asks (and ``shaded`` is given), behind or inside the volume ``layer``."""
         for owner, state, style in items:
             # Keyed by the object passed in (a system lives across frames; a state is
             # taken anew each frame): its rasteriser keeps its scratch buffers.
@@ -195,18 +213,11 @@ class Renderer:
                 if len(self._rasterizers) > 64:
                     self._rasterizers.clear()
                 rasterizer = self._rasterizers[key] = SpriteRasterizer(style)
-            colors = _lit_colors(state, shaded) if style.lit else None
+            colors = _lit_colors(state, shaded) if style.lit and shaded is not None else None
             if layer is not None:
                 colors = _colors(state) if colors is None else colors
                 colors = layer.through(self.camera, state.positions.T, colors, style)
             draw_system(frame, self.camera, state, rasterizer, colors=colors)
-        if transparent:
-            frame.alpha = self._coverage(frame, items)
-            if layer is not None:
-                frame.alpha = layer.cover(frame.alpha)
-        if self.bloom is not None:  # light: it covers nothing (the alpha stays)
-            self.bloom.apply(frame.color, exposure=self.exposure)
-        return frame
 
     def _coverage(self, frame: Frame, items) -> np.ndarray:
         """Alpha of a frame drawn over nothing: 1 on opaque geometry, else what the

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..io.frames import read_image
 from ..render import geometry
+from ..render.frame import Frame
 from ..render.metaballs import GridError, Metaballs
 from ..render.renderer import Renderer, background_from
 from ..render.shading import AmbientLight, DirectionalLight, Material, default_lights
@@ -76,6 +77,23 @@ class SceneRenderer:
     def tonemap(self) -> str:
         """The scene's tone curve (:class:`~motes.render.tonemap.ToneMap` name)."""
         return self.renderer.tonemap
+
+    def draw_particles(self, scene) -> None:
+        """Draw the scene's particles now into a scratch frame, alone
+        (:meth:`~motes.render.renderer.Renderer.draw_particles`), and the scene's bloom
+        over them: on a first run their kernels then compile early, while the helper
+        of :mod:`motes.cli.compile_ahead` compiles the rest. The scratch frame's
+        corner pixel is set above the bloom's threshold, so that every bloom pass runs
+        (the helper's frame 0, and particles on black, may have no light that bright)."""
+        systems = [(scene.systems[name], style) for name, style in self.styles.items()]
+        for body in scene.bodies.values():
+            systems.extend(body.particles())
+        frame = Frame(*self.resolution)
+        renderer = self.renderer
+        renderer.draw_particles(frame, systems)
+        if renderer.bloom is not None:
+            frame.color[0, 0] = 2.0 * renderer.bloom.threshold / renderer.exposure
+            renderer.bloom.apply(frame.color, exposure=renderer.exposure)
 
     def _contents(self, scene, states) -> tuple[list, list]:
         """The particle systems and the objects the renderer draws for the scene now."""

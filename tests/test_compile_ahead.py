@@ -1,0 +1,161 @@
+"""``motes run``'s helper that compiles the drawing kernels in a second process on a
+first run (motes.cli.compile_ahead): when it starts, how its cache is taken over, and
+that frames do not depend on it."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numba
+import numpy as np
+import pytest
+from PIL import Image
+
+import motes
+from motes.cli import compile_ahead as ahead
+from motes.render.frame import Frame
+from motes.scene import load_scene
+
+RENDER = Path(motes.__file__).resolve().parent / "render"
+
+
+def helper_subfolder(source: Path) -> str:
+    """The folder Numba caches ``source``'s functions in under ``NUMBA_CACHE_DIR``."""
+    absolute = os.path.abspath(source)
+    return f"{os.path.basename(absolute)}_{hashlib.sha1(absolute.encode()).hexdigest()}"
+
+
+def fake_cache(root: Path, name: str, data: dict[int, bytes]) -> Path:
+    """An index ``name.nbi`` and data files ``name.K.nbc`` under ``root``'s folder for
+    motes/render, as the helper's Numba writes them."""
+    folder = root / helper_subfolder(RENDER)
+    folder.mkdir(parents=True, exist_ok=True)
+    for number, content in data.items():
+        (folder / f"{name}.{number}.nbc").write_bytes(content)
+    (folder / f"{name}.nbi").write_bytes(b"index of " + name.encode())
+    return folder
+
+
+def test_adopt_copies_index_and_data_where_this_process_caches_them(tmp_path, monkeypatch):
+    helper, own = tmp_path / "helper", tmp_path / "own"
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(own))
+    fake_cache(helper, "bloom_kernels.halve-20.py311", {1: b"one", 2: b"two"})
+    fake_cache(helper, "tonemap._tonemap_kernel-57.py311", {1: b"tone"})
+    # A function this process has cached already is left as it is.
+    target = own / helper_subfolder(RENDER)
+    target.mkdir(parents=True)
+    (target / "tonemap._tonemap_kernel-57.py311.nbi").write_bytes(b"mine")
+    (target / "tonemap._tonemap_kernel-57.py311.1.nbc").write_bytes(b"my data")
+    # A folder of sources that are not motes' is not copied anywhere.
+    (helper / "elsewhere_0123").mkdir()
+    (helper / "elsewhere_0123" / "f-1.py311.nbi").write_bytes(b"?")
+
+    assert ahead.adopt(helper) == 3
+    assert (target / "bloom_kernels.halve-20.py311.nbi").read_bytes().startswith(b"index")
+    assert (target / "bloom_kernels.halve-20.py311.1.nbc").read_bytes() == b"one"
+    assert (target / "bloom_kernels.halve-20.py311.2.nbc").read_bytes() == b"two"
+    assert (target / "tonemap._tonemap_kernel-57.py311.nbi").read_bytes() == b"mine"
+    assert (target / "tonemap._tonemap_kernel-57.py311.1.nbc").read_bytes() == b"my data"
+    assert not list(own.rglob("*.partial"))
+
+
+def test_adopt_takes_names_with_glob_characters_literally(tmp_path, monkeypatch):
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "own"))
+    fake_cache(tmp_path / "helper", "k.kernel[a]-3.py311", {1: b"x"})
+    fake_cache(tmp_path / "helper", "k.kernela-3.py311", {1: b"y"})
+    assert ahead.adopt(tmp_path / "helper") == 4
+    target = tmp_path / "own" / helper_subfolder(RENDER)
+    assert (target / "k.kernel[a]-3.py311.1.nbc").read_bytes() == b"x"
+    assert (target / "k.kernela-3.py311.1.nbc").read_bytes() == b"y"
+
+
+@pytest.mark.parametrize(
+    ("first_run", "switch", "cores"), [(False, "1", 2), (True, "0", 2), (True, "1", 1)]
+)
+def test_no_helper_where_it_cannot_help(monkeypatch, first_run, switch, cores):
+    monkeypatch.setenv(ahead.SWITCH, switch)
+    monkeypatch.setattr(ahead, "_usable_cores", lambda: cores)
+    started = []
+    monkeypatch.setattr(ahead.subprocess, "Popen", lambda *a, **k: started.append(a))
+    helper = ahead.CompileAhead.start(
+        "fire", seed=None, overrides=[], resolution=(64, 36), check_finite=True,
+        first_run=first_run,
+    )  # fmt: skip
+    assert helper is None and not started
+
+
+def test_kernels_cached_reads_the_tone_kernels_index():
+    from motes.render.tonemap import _tonemap_kernel
+
+    index = Path(_tonemap_kernel._cache._cache_file._index_path)
+    assert ahead.kernels_cached() == index.exists()
+
+
+def test_the_helper_draws_frame_0_and_a_failed_helper_is_ignored(tmp_path):
+    """The helper's own entry point, in this process: it loads the scene and draws its
+    frame 0. A helper that fails (here: an unknown scene) adopts nothing."""
+    assert (
+        ahead.main(["fire", "--resolution", "64x36", "--seed", "3", "--set", "scene.fps=30"]) == 0
+    )
+    process = subprocess.Popen([sys.executable, "-c", "raise SystemExit(3)"])
+    folder = tmp_path / "helper"
+    folder.mkdir()
+    fake_cache(folder, "k-1.py311", {1: b"x"})
+    assert ahead.CompileAhead(process, folder).finish() == 0
+    assert not folder.exists()
+
+
+def test_close_stops_a_running_helper_and_removes_its_folder(tmp_path):
+    process = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    folder = tmp_path / "helper"
+    folder.mkdir()
+    helper = ahead.CompileAhead(process, folder)
+    helper.close()
+    helper.close()  # idempotent
+    assert process.poll() is not None and not folder.exists()
+
+
+def test_finish_runs_meanwhile_only_while_the_helper_works(tmp_path):
+    calls = []
+    busy = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(1)"])
+    (tmp_path / "a").mkdir()
+    ahead.CompileAhead(busy, tmp_path / "a").finish(lambda: calls.append("busy"))
+    done = subprocess.Popen([sys.executable, "-c", "pass"])
+    done.wait()
+    (tmp_path / "b").mkdir()
+    ahead.CompileAhead(done, tmp_path / "b").finish(lambda: calls.append("done"))
+    assert calls == ["busy"]
+
+
+def test_draw_particles_draws_the_particles_alone():
+    scene = load_scene("fire", overrides={"camera.resolution": [96, 54]})
+    for _ in range(3):
+        scene.advance()
+    drawing = scene.renderer()
+    frame = Frame(96, 54)
+    drawing.renderer.draw_particles(frame, [scene.systems["flame"]])
+    assert frame.color.sum() > 0 and np.isinf(frame.depth).all()
+    drawing.draw_particles(scene)  # the scene's particles and its bloom, into scratch
+
+
+@pytest.mark.slow
+def test_a_first_run_with_the_helper_draws_the_frames_of_one_without(tmp_path):
+    """Two first runs of ``motes run`` (empty kernel caches), with and without the
+    helper, write the same PNG frames; so does a run from the cache left behind."""
+    frames = {}
+    for name, switch, cache in (("ahead", "1", "a"), ("alone", "0", "b"), ("warm", "1", "a")):
+        out = tmp_path / name
+        environment = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / cache), ahead.SWITCH: switch}
+        subprocess.run(
+            [sys.executable, "-m", "motes", "run", "fire", "--frames", "3", "--resolution",
+             "160x90", "-o", str(out), "-q"],
+            env=environment, check=True,
+        )  # fmt: skip
+        frames[name] = [np.asarray(Image.open(p)) for p in sorted(out.glob("*.png"))]
+    assert len(frames["ahead"]) == 3
+    for name in ("alone", "warm"):
+        assert all(np.array_equal(a, b) for a, b in zip(frames["ahead"], frames[name], strict=True))
