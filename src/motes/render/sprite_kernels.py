@@ -191,37 +191,19 @@ def _project_range(
     near = cam[NEAR]
     far = cam[FAR]
     wide = streak or kind == TEXTURE
-    pos_bits, col_bits, rad_bits, rot_bits, vel_bits = checks
-    bad = 0
     drawn = 0
     general = 0
     work = 0
-    for i in range(start, stop):
+    bad = _chunk_problems(start, stop, checks, kind, streak, radii)
+    if bad:
+        # The caller raises: nothing of this chunk is drawn or counted.
+        status[chunk, PROBLEMS] = bad
+        return
+    # Unsigned: Numba then skips the negative-index wraparound on every access.
+    for i in range(np.uint64(start), np.uint64(stop)):
         boxes[0, i] = 0
         boxes[2, i] = -1  # not binned unless drawn by the general path below
         tile_of[i] = -1
-        problem = 0
-        for c in range(3):
-            if nonfinite(pos_bits[i, c]):
-                problem |= BAD_POSITION
-        for c in range(4):
-            if nonfinite(col_bits[i, c]):
-                problem |= BAD_COLOR
-        if kind != POINT:
-            if nonfinite(rad_bits[i]):
-                problem |= BAD_RADIUS
-            elif radii[i] < 0:
-                problem |= NEGATIVE_RADIUS
-        if kind == TEXTURE and nonfinite(rot_bits[i]):
-            problem |= BAD_ROTATION
-        if streak:
-            for c in range(3):
-                if nonfinite(vel_bits[i, c]):
-                    problem |= BAD_VELOCITY
-        if problem:
-            bad |= problem
-            continue
-
         px, py, pz = positions[i, 0], positions[i, 1], positions[i, 2]
         sx, sy, depth, ppm = to_screen(cam, px, py, pz)
         if depth < near or depth > far:
@@ -278,12 +260,18 @@ def _project_range(
             # particle if it stays within MARGIN of the tile.
             # Streaks always take the general list: few fit a window, and it saves
             # compiling unrolled streak kernels.
+            # Branch-free (a 3 px sprite fits the 3 × 3 window at some sub-pixel
+            # positions and not at others: a branch on it mispredicts half the time).
+            span = max(c1 - c0, r1 - r0)
             which = LISTS - 1
-            for w in range(0 if streak else LISTS - 1):
-                if which == LISTS - 1 and c1 - c0 < WINDOWS[w] and r1 - r0 < WINDOWS[w]:
-                    which = w
-                    col1 = min(int(c0) + WINDOWS[w] - 1, width - 1)
-                    row1 = min(int(r0) + WINDOWS[w] - 1, height - 1)
+            if not streak:
+                which = 0
+                for w in range(LISTS - 1):
+                    which += span >= WINDOWS[w]
+            if which < LISTS - 1:
+                reach = WINDOWS[which] - 1
+                col1 = min(int(c0) + reach, width - 1)
+                row1 = min(int(r0) + reach, height - 1)
             owner_x = ((col0 + col1) >> 1) // TILE
             owner_y = ((row0 + row1) >> 1) // TILE
             left, top = owner_x * TILE - MARGIN, owner_y * TILE - MARGIN
@@ -329,10 +317,38 @@ def _project_range(
         boxes[1, i] = row0
         boxes[2, i] = col1
         boxes[3, i] = row1
-    status[chunk, PROBLEMS] = bad
+    status[chunk, PROBLEMS] = 0
     status[chunk, DRAWN] = drawn
     status[chunk, GENERAL] = general
     status[chunk, FRAGMENTS] = work
+
+
+@called
+def _chunk_problems(start, stop, checks, kind, streak, radii):
+    """BAD_* bits of the input problems among particles ``start..stop`` (0: none).
+
+    A pass of its own, without branches: most chunks have no problem, and the drawing
+    loop then needs no test per particle."""
+    pos_bits, col_bits, rad_bits, rot_bits, vel_bits = checks
+    position = color = radius = negative = rotation = velocity = False
+    for i in range(start, stop):
+        for c in range(3):
+            position |= nonfinite(pos_bits[i, c])
+        for c in range(4):
+            color |= nonfinite(col_bits[i, c])
+        if kind != POINT:
+            radius |= nonfinite(rad_bits[i])
+            negative |= radii[i] < 0  # read as a float: -0.0 is a valid radius
+        if kind == TEXTURE:
+            rotation |= nonfinite(rot_bits[i])
+        if streak:
+            for c in range(3):
+                velocity |= nonfinite(vel_bits[i, c])
+    return (
+        BAD_POSITION * position | BAD_COLOR * color | BAD_RADIUS * radius
+        | NEGATIVE_RADIUS * negative | BAD_ROTATION * rotation
+        | BAD_VELOCITY * velocity
+    )  # fmt: skip
 
 
 @parallel_kernel
