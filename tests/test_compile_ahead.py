@@ -74,11 +74,14 @@ def test_adopt_takes_names_with_glob_characters_literally(tmp_path, monkeypatch)
 
 
 @pytest.mark.parametrize(
-    ("first_run", "switch", "cores"), [(False, "1", 2), (True, "0", 2), (True, "1", 1)]
+    ("first_run", "switch", "cores", "memory"),
+    [(False, "1", 2, None), (True, "0", 2, None), (True, "1", 1, None), (True, "1", 2, "1000")],
 )
-def test_no_helper_where_it_cannot_help(monkeypatch, first_run, switch, cores):
+def test_no_helper_where_it_cannot_help(monkeypatch, first_run, switch, cores, memory):
     monkeypatch.setenv(ahead.SWITCH, switch)
     monkeypatch.setattr(ahead, "_usable_cores", lambda: cores)
+    if memory is not None:
+        monkeypatch.setenv("MOTES_MEMORY_LIMIT", memory)
     started = []
     monkeypatch.setattr(ahead.subprocess, "Popen", lambda *a, **k: started.append(a))
     helper = ahead.CompileAhead.start(
@@ -159,3 +162,33 @@ def test_a_first_run_with_the_helper_draws_the_frames_of_one_without(tmp_path):
     assert len(frames["ahead"]) == 3
     for name in ("alone", "warm"):
         assert all(np.array_equal(a, b) for a, b in zip(frames["ahead"], frames[name], strict=True))
+
+
+def test_the_helper_is_started_with_the_runs_scene_and_a_cache_of_its_own(monkeypatch):
+    monkeypatch.setenv(ahead.SWITCH, "1")
+    monkeypatch.delenv("MOTES_MEMORY_LIMIT", raising=False)
+    monkeypatch.setattr(ahead, "_usable_cores", lambda: 2)
+    monkeypatch.setattr(ahead, "_memory_for_helper", lambda: True)
+    seen = {}
+
+    class Finished:
+        def poll(self):
+            return 0
+
+    def popen(command, env, **options):
+        seen.update(command=command, env=env)
+        return Finished()
+
+    monkeypatch.setattr(ahead.subprocess, "Popen", popen)
+    helper = ahead.CompileAhead.start(
+        "my scene.toml", seed=7, overrides=["camera.fov=40"], resolution=(320, 180),
+        check_finite=False, first_run=True,
+    )  # fmt: skip
+    assert seen["command"][1:] == [
+        "-m", "motes.cli.compile_ahead", "my scene.toml", "--resolution", "320x180",
+        "--seed", "7", "--set", "camera.fov=40", "--no-check-finite",
+    ]  # fmt: skip
+    assert seen["env"]["NUMBA_CACHE_DIR"] == str(helper.folder) and helper.folder.is_dir()
+    assert seen["env"][ahead.SWITCH] == "0"
+    helper.close()
+    assert not helper.folder.exists()

@@ -18,9 +18,10 @@ left alone. Cached kernels compute the same bits as freshly compiled ones
 (:data:`motes._jit.FASTMATH`), so the frames do not depend on which process compiled
 what.
 
-The helper runs only when it can help: rendering, at least two usable cores, and an
-empty cache for the tone-mapping kernel every rendered frame uses (the sign of a first
-run). ``MOTES_COMPILE_AHEAD=0`` turns it off.
+The helper runs only when it can help: rendering, at least two usable cores, 1 GB of
+memory available (``MOTES_MEMORY_LIMIT`` counts), and an empty cache for the
+tone-mapping kernel every rendered frame uses (the sign of a first run).
+``MOTES_COMPILE_AHEAD=0`` turns it off.
 """
 
 from __future__ import annotations
@@ -39,6 +40,9 @@ from pathlib import Path
 SWITCH = "MOTES_COMPILE_AHEAD"
 #: Longest wait [s] for the helper before frame 1 is drawn without it.
 WAIT_S = 600.0
+#: Memory [bytes] that must be available to start the helper: it peaks at about 0.3 GB
+#: while compiling (the fire at 1280 × 720), and the main process keeps its own needs.
+HELPER_MEMORY = 1 << 30
 
 
 def _usable_cores() -> int:
@@ -46,6 +50,13 @@ def _usable_cores() -> int:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
         return os.cpu_count() or 1
+
+
+def _memory_for_helper() -> bool:
+    from .._memory import available
+
+    found = available()
+    return found is None or found[0] >= HELPER_MEMORY
 
 
 def _numba_caches() -> bool:
@@ -83,7 +94,7 @@ class CompileAhead:
         :func:`kernels_cached` said before anything was compiled."""
         if not first_run or os.environ.get(SWITCH, "1") == "0" or _usable_cores() < 2:
             return None
-        if not _numba_caches():
+        if not _numba_caches() or not _memory_for_helper():
             return None
         folder = Path(tempfile.mkdtemp(prefix="motes-kernels-"))
         command = [
