@@ -192,3 +192,14 @@ def test_the_helper_is_started_with_the_runs_scene_and_a_cache_of_its_own(monkey
     assert seen["env"][ahead.SWITCH] == "0"
     helper.close()
     assert not helper.folder.exists()
+
+
+def test_a_cache_that_cannot_be_written_is_compiled_into_as_usual(tmp_path, monkeypatch):
+    def refuse(folder):
+        raise PermissionError("read-only")
+
+    monkeypatch.setattr(ahead, "adopt", refuse)
+    done = subprocess.Popen([sys.executable, "-c", "pass"])
+    (tmp_path / "helper").mkdir()
+    assert ahead.CompileAhead(done, tmp_path / "helper").finish() == 0
+    assert not (tmp_path / "helper").exists()

@@ -67,9 +67,9 @@ def _numba_caches() -> bool:
 
 
 def kernels_cached() -> bool:
-    """Whether the tone-mapping kernel has an entry in this process's kernel cache: if
-    not, this is a first run (an empty cache, or motes' sources changed). Ask before a
-    renderer is made: making one compiles that kernel."""
+    """Whether the tone-mapping kernel has an index in this process's kernel cache; if
+    not, this is a first run (an index left by other sources of motes counts as cached:
+    no helper then). Ask before a renderer is made: making one compiles that kernel."""
     from ..render.tonemap import _tonemap_kernel
 
     try:
@@ -96,7 +96,10 @@ class CompileAhead:
             return None
         if not _numba_caches() or not _memory_for_helper():
             return None
-        folder = Path(tempfile.mkdtemp(prefix="motes-kernels-"))
+        try:
+            folder = Path(tempfile.mkdtemp(prefix="motes-kernels-"))
+        except OSError:  # no writable temporary folder: compile here, as without it
+            return None
         command = [
             sys.executable,
             "-m",
@@ -133,7 +136,12 @@ class CompileAhead:
                 status = self.process.wait(timeout=WAIT_S)
             except subprocess.TimeoutExpired:
                 return 0
-            return adopt(self.folder) if status == 0 else 0
+            if status != 0:
+                return 0
+            try:
+                return adopt(self.folder)
+            except OSError:  # a cache folder that cannot be written: compile here
+                return 0
         finally:
             self.close()
 
