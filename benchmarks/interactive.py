@@ -3,7 +3,7 @@ for the first run's first frame.
 
 Run from the repository root::
 
-    PYTHONPATH=src python -m benchmarks.interactive            # about three minutes
+    PYTHONPATH=src python -m benchmarks.interactive            # about five minutes
     PYTHONPATH=src python -m benchmarks.interactive --quick    # seconds: 20,000 particles,
                                                                # no cold start
 
@@ -21,8 +21,11 @@ Run from the repository root::
   empty kernel cache (``NUMBA_CACHE_DIR`` set to a new folder): seconds until its
   progress line for frame 1 (``cold_first_frame_s``, target <= 10) and until it exits
   (``cold_start_fire_s``, target <= 25); then the same command again with the cache it
-  left (``warm_start_fire_s``). Skipped with ``--quick`` (the figures are then null):
-  compiling takes a minute or more.
+  left (``warm_start_fire_s``). These first runs compile in two processes, as a user's
+  does (:mod:`motes.cli.compile_ahead`); the baseline is a first run in one process
+  (``MOTES_COMPILE_AHEAD=0``: ``cold_first_frame_one_process_s``,
+  ``cold_start_fire_one_process_s``). Skipped with ``--quick`` (the figures are then
+  null): compiling takes a minute or more each time.
 
 Timings are the best of several calls after warm-up calls, with the median beside them.
 """
@@ -40,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from motes import Camera, Renderer, SpriteStyle
+from motes.cli.compile_ahead import SWITCH
 
 from ._common import benchmark_main, machine, table, time_calls
 from .emitter import fire_system
@@ -82,10 +86,12 @@ def bench_frame(live: int, repeat: int) -> dict:
     }
 
 
-def run_fire(cache: Path, out: Path) -> tuple[float | None, float]:
+def run_fire(cache: Path, out: Path, *, ahead: bool = True) -> tuple[float | None, float]:
     """Run ``motes run fire`` with kernel cache ``cache``: seconds to frame 1's progress
-    line (None if it never printed one) and to the end. Raises if the run fails."""
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
+    line (None if it never printed one) and to the end. Raises if the run fails.
+    ``ahead``: whether a first run may compile in two processes (``MOTES_COMPILE_AHEAD``,
+    :mod:`motes.cli.compile_ahead`)."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), SWITCH: "1" if ahead else "0"}
     command = [sys.executable, "-m", "motes", "run", "fire", "-o", str(out), "--overwrite"]
     started = time.perf_counter()
     first = None
@@ -105,13 +111,16 @@ def run_fire(cache: Path, out: Path) -> tuple[float | None, float]:
 
 
 def bench_cold_start() -> dict:
-    """The fire scene's first run with an empty kernel cache, then a second one."""
+    """The fire scene's first run with an empty kernel cache (as a user's: compiling in
+    two processes), then a second one; and a first run in one process, the baseline."""
     with tempfile.TemporaryDirectory() as folder:
-        cache, out = Path(folder) / "numba", Path(folder) / "fire.mp4"
-        cache.mkdir()
+        out = Path(folder) / "fire.mp4"
+        cache, alone = Path(folder) / "numba", Path(folder) / "numba-alone"
         first, cold = run_fire(cache, out)
         _, warm = run_fire(cache, out)
-    return {"first": first, "cold": cold, "warm": warm}
+        first_alone, cold_alone = run_fire(alone, out, ahead=False)
+    return {"first": first, "cold": cold, "warm": warm, "first_alone": first_alone,
+            "cold_alone": cold_alone}  # fmt: skip
 
 
 def run(*, quick: bool, out=print) -> dict:
@@ -141,11 +150,14 @@ def run(*, quick: bool, out=print) -> dict:
         ("draw alone", f"{1e3 * f['draw'].best:9.2f} ms (sprites and tone mapping)"),
     ]
     out(table(rows, title="1. A million-particle fire, stepped and drawn"))
-    cold = {"first": None, "cold": None, "warm": None} if quick else bench_cold_start()
+    keys = ("first", "cold", "warm", "first_alone", "cold_alone")
+    cold = dict.fromkeys(keys) if quick else bench_cold_start()
     figures |= {
         "cold_first_frame_s": cold["first"],
         "cold_start_fire_s": cold["cold"],
         "warm_start_fire_s": cold["warm"],
+        "cold_first_frame_one_process_s": cold["first_alone"],
+        "cold_start_fire_one_process_s": cold["cold_alone"],
     }
 
     def seconds(value, target=""):
@@ -156,6 +168,9 @@ def run(*, quick: bool, out=print) -> dict:
         ("cold: frame 1", seconds(cold["first"], " (target <= 10)")),
         ("cold: all", seconds(cold["cold"], " (target <= 25)")),
         ("warm: all", seconds(cold["warm"])),
+        ("one process", "a first run without the helper that compiles the drawing:"),
+        ("  frame 1", seconds(cold["first_alone"])),
+        ("  all", seconds(cold["cold_alone"])),
     ]
     out()
     out(table(rows, title="2. The first run: an empty kernel cache"))
