@@ -651,12 +651,9 @@ def _picture(args, scene, resolution, states=None) -> np.ndarray:
 
 
 def _run(args) -> int:
-    from ..finite import NonFiniteError
-    from ..io.frames import open_writer
     from ..scene import SceneError, load_scene
     from ..scene.overrides import parse_assignment
     from .compile_ahead import CompileAhead, kernels_cached
-    from .progress import Progress
 
     first_run = not args.no_render and not kernels_cached()
     try:
@@ -707,6 +704,28 @@ def _run(args) -> int:
     )
     if output is not None and output.suffix == "":
         _clear_frames(output, overwrite=args.overwrite)
+    # On a first run, a second process compiles the drawing kernels meanwhile; started
+    # before the renderer is made (that compiles the tone curve) and the video opened.
+    ahead = None
+    if output is not None:
+        ahead = CompileAhead.start(
+            args.scene, seed=args.seed, overrides=args.overrides, resolution=resolution,
+            check_finite=args.check_finite, first_run=first_run,
+        )  # fmt: skip
+    try:
+        return _run_frames(args, scene, frames, output, resolution, still, exporter, ahead)
+    finally:
+        if ahead is not None:
+            ahead.close()
+
+
+def _run_frames(args, scene, frames, output, resolution, still, exporter, ahead) -> int:
+    """``motes run``'s frames: simulated, drawn and written (see :func:`_run`)."""
+    from ..finite import NonFiniteError
+    from ..io.frames import open_writer
+    from ..scene import SceneError
+    from .progress import Progress
+
     if output is not None:
         scene.renderer(resolution)  # a frame that would not fit in memory fails here
 
@@ -730,15 +749,6 @@ def _run(args) -> int:
         if exporter is not None:
             outputs.enter_context(exporter)
         outputs.callback(progress.close)
-        # On a first run, a second process compiles the drawing kernels meanwhile.
-        ahead = None
-        if output is not None:
-            ahead = CompileAhead.start(
-                args.scene, seed=args.seed, overrides=args.overrides, resolution=resolution,
-                check_finite=args.check_finite, first_run=first_run,
-            )  # fmt: skip
-        if ahead is not None:
-            outputs.callback(ahead.close)
         try:
             # A .png or .exr keeps only the last frame: render just that one.
             for index in range(frames):
