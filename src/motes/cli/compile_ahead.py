@@ -4,11 +4,12 @@ On a first run every compiled kernel is built before it is used, one after anoth
 the fire's first frame waits about 10 s for the simulation's kernels and 28 s for the
 drawing's. The two sets do not depend on each other, and compiling is single-threaded,
 so on a machine with two or more cores ``motes run`` starts a helper process that loads
-the same scene and draws its frame 0 (the scene as loaded, before any step: its
-geometry, background, lights, bloom and tone curve) while the main process simulates
-frame 1. Before drawing frame 1 the main process draws that frame's particles alone
-(their kernels), waits for the helper, and takes the kernels it compiled into its own
-cache; drawing frame 1 then compiles only what is left.
+the same scene and draws its frame 0 in linear light (the scene as loaded, before any
+step: its geometry, shadows and background) while the main process simulates frame 1.
+Before drawing frame 1 the main process draws that frame's particles alone, with the
+scene's bloom and tone curve (their kernels), waits for the helper, and takes the
+kernels it compiled into its own cache; drawing frame 1 then compiles only what is
+left.
 
 The helper writes into a cache folder of its own, and its files are copied into the
 main process's kernel cache only after it has exited, from the main process's thread,
@@ -69,7 +70,7 @@ def _numba_caches() -> bool:
 def kernels_cached() -> bool:
     """Whether the tone-mapping kernel has an index in this process's kernel cache; if
     not, this is a first run (an index left by other sources of motes counts as cached:
-    no helper then). Ask before a renderer is made: making one compiles that kernel."""
+    no helper then). Ask before the first frame is tone mapped."""
     from ..render.tonemap import _tonemap_kernel
 
     try:
@@ -223,7 +224,8 @@ def _cache_folder(source: Path) -> Path | None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """The helper: load the scene and draw its frame 0 (nothing is written)."""
+    """The helper: load the scene and draw its frame 0 in linear light (nothing is
+    written)."""
     from ..scene import load_scene
     from ..scene.overrides import parse_assignment
     from .common import resolution
@@ -239,7 +241,8 @@ def main(argv: list[str] | None = None) -> int:
     scene = load_scene(
         args.scene, seed=args.seed, overrides=overrides, check_finite=args.check_finite
     )
-    scene.renderer(args.resolution).render_scene(scene)
+    # In linear light: the main process compiles the tone curve (its particle frame).
+    scene.renderer(args.resolution).render_scene_hdr(scene)
     return 0
 
 

@@ -33,7 +33,7 @@ from .occlusion import AmbientOcclusion
 from .shading import default_lights
 from .shadow_pass import prepare
 from .sprites import Blend, SpriteRasterizer, SpriteStyle
-from .tonemap import to_srgb8
+from .tonemap import ToneMap, to_srgb8
 from .volume import Volume, draw_volumes, volume_shadowing
 from .water import Water
 
@@ -108,7 +108,7 @@ class Renderer:
         self.background = background
         self.lights = lights
         self.exposure = check.positive("exposure", exposure)
-        self.tonemap = tonemap
+        self.tonemap = check.choice("tonemap", tonemap, [t.value for t in ToneMap])
         self.supersample = check.integer("supersample", supersample, low=1)
         if bloom is not None and not isinstance(bloom, Bloom):
             raise TypeError(f"bloom must be a Bloom or None, got {bloom!r}")
@@ -123,7 +123,6 @@ class Renderer:
         self._rasterizers: dict[tuple[int, int], SpriteRasterizer] = {}
         # the white coverage pass of a transparent frame: (style drawn, its rasteriser)
         self._coverage_rasterizers: dict[tuple[int, int], tuple] = {}
-        to_srgb8(np.zeros((1, 1, 3), np.float32), exposure=exposure, tonemap=tonemap)
 
     @property
     def resolution(self) -> tuple[int, int]:

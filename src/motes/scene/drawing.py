@@ -13,6 +13,7 @@ from ..render.metaballs import GridError, Metaballs
 from ..render.renderer import Renderer, background_from
 from ..render.shading import AmbientLight, DirectionalLight, Material, default_lights
 from ..render.sprites import SpriteStyle
+from ..render.tonemap import to_srgb8
 from ..render.water import Water
 from ..state import as_state
 from .looks import ParticleLook, SceneObject, SpheresLook, SurfaceLook, WaterLook
@@ -80,11 +81,12 @@ class SceneRenderer:
 
     def draw_particles(self, scene) -> None:
         """Draw the scene's particles now into a scratch frame, alone
-        (:meth:`~motes.render.renderer.Renderer.draw_particles`), and the scene's bloom
-        over them: on a first run their kernels then compile early, while the helper
-        of :mod:`motes.cli.compile_ahead` compiles the rest. The scratch frame's
-        corner pixel is set above the bloom's threshold, so that every bloom pass runs
-        (the helper's frame 0, and particles on black, may have no light that bright)."""
+        (:meth:`~motes.render.renderer.Renderer.draw_particles`), the scene's bloom over
+        them and its tone curve: on a first run their kernels then compile early, while
+        the helper of :mod:`motes.cli.compile_ahead` compiles the rest. The scratch
+        frame's corner pixel is set above the bloom's threshold, so that every bloom
+        pass runs (the helper's frame 0, and particles on black, may have no light that
+        bright)."""
         systems = [(scene.systems[name], style) for name, style in self.styles.items()]
         for body in scene.bodies.values():
             systems.extend(body.particles())
@@ -94,6 +96,7 @@ class SceneRenderer:
         if renderer.bloom is not None:
             frame.color[0, 0] = 2.0 * renderer.bloom.threshold / renderer.exposure
             renderer.bloom.apply(frame.color, exposure=renderer.exposure)
+        to_srgb8(frame.color, exposure=renderer.exposure, tonemap=renderer.tonemap)
 
     def _contents(self, scene, states) -> tuple[list, list]:
         """The particle systems and the objects the renderer draws for the scene now."""
