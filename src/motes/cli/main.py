@@ -704,8 +704,8 @@ def _run(args) -> int:
     )
     if output is not None and output.suffix == "":
         _clear_frames(output, overwrite=args.overwrite)
-    # On a first run, a second process compiles the drawing kernels meanwhile; started
-    # before the renderer is made (that compiles the tone curve) and the video opened.
+    # On a first run, a second process compiles the drawing kernels meanwhile: started
+    # as early as it can be, before the renderer is made and the video opened.
     ahead = None
     if output is not None:
         ahead = CompileAhead.start(
