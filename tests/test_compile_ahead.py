@@ -91,11 +91,16 @@ def test_no_helper_where_it_cannot_help(monkeypatch, first_run, switch, cores, m
     assert helper is None and not started
 
 
-def test_kernels_cached_reads_the_tone_kernels_index():
-    from motes.render.tonemap import _tonemap_kernel
+def test_kernels_cached_says_whether_the_tone_kernel_is_in_the_cache(tmp_path, monkeypatch):
+    from motes.render.tonemap import _tonemap_kernel, to_srgb8
 
-    index = Path(_tonemap_kernel._cache._cache_file._index_path)
-    assert ahead.kernels_cached() == index.exists()
+    to_srgb8(np.zeros((1, 1, 3), np.float32))  # compiled (and cached) or loaded
+    assert ahead.kernels_cached()
+    cache_file = _tonemap_kernel._cache._cache_file
+    monkeypatch.setattr(cache_file, "_index_path", str(tmp_path / "absent.nbi"))
+    assert not ahead.kernels_cached()
+    monkeypatch.delattr(cache_file, "_index_path")
+    assert ahead.kernels_cached()  # a Numba laid out otherwise: no guess, no helper
 
 
 def test_the_helper_draws_frame_0_and_a_failed_helper_is_ignored(tmp_path):
