@@ -34,6 +34,7 @@ import numpy as np
 
 from .. import _validate as check
 from .._jit import serial_kernel
+from .._unique import sorted_unique
 
 #: Relative strain above the limit at which passes stop (0.1 %).
 TOLERANCE = 1e-3
@@ -64,7 +65,7 @@ def pin_rank(pairs: np.ndarray, pinned: np.ndarray) -> np.ndarray:
         total = int(counts.sum())
         offsets = np.repeat(starts - (np.cumsum(counts) - counts), counts)
         reached = neighbour[np.arange(total) + offsets]
-        frontier = np.unique(reached[rank[reached] == n])
+        frontier = sorted_unique(reached[rank[reached] == n])
         level += 1
         rank[frontier] = level
     return rank

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._unique import sorted_unique
 from .multigrid_kernels import aggregate_kernel
 
 #: A level with at most this many nodes is the coarsest (solved by Gauss-Seidel sweeps).
@@ -98,7 +99,7 @@ class Hierarchy:
                 break
             a, b = agg[src], agg[dst]
             between = a != b
-            keys = np.unique(a[between] * count + b[between])
+            keys = sorted_unique(a[between] * count + b[between])
             slots = np.full(src.shape[0], -1, dtype=np.int64)
             slots[between] = np.searchsorted(keys, a[between] * count + b[between])
             aggs.append(agg)
@@ -181,7 +182,7 @@ def strong_springs(n: int, pairs: np.ndarray, coef: np.ndarray) -> np.ndarray:
 def _aggregate(n: int, src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, int]:
     """Aggregates of the graph of edges ``src -> dst`` (both directions listed)."""
     keep = src != dst
-    keys = np.unique(src[keep] * n + dst[keep])
+    keys = sorted_unique(src[keep] * n + dst[keep])
     indptr = np.concatenate([[0], np.cumsum(np.bincount(keys // n, minlength=n))])
     agg = np.empty(n, dtype=np.int64)
     count = aggregate_kernel(indptr.astype(np.int64), (keys % n).astype(np.int64), agg)
