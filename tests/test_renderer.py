@@ -77,6 +77,25 @@ def test_render_returns_srgb_bytes_and_is_deterministic():
     np.testing.assert_array_equal(first, mo.Renderer(camera(), exposure=2.0).render([system]))
 
 
+def test_render_reuses_its_frame_without_leaking_the_last_one():
+    """render() keeps its frame between calls: what the last call drew (a box, particles)
+    must not show in the next, nor after the camera's size changes."""
+    system = still_system([[0, 0, -1.0]], [[1.0, 0.5, 0.25, 1.0]], size=0.5)  # behind
+    wall = geometry.Box((0, 0, 0), (2, 2, 0.1), color=(0.6, 0.2, 0.2))
+    kept = mo.Renderer(camera(), background=(0.1, 0.2, 0.3), supersample=1)
+    kept.render([system], [wall])
+    np.testing.assert_array_equal(
+        kept.render([system]),
+        mo.Renderer(camera(), background=(0.1, 0.2, 0.3), supersample=1).render([system]),
+    )
+    hdr = kept.render_hdr([system])
+    assert hdr is not kept.render_hdr([system])  # render_hdr's frames are the caller's
+    kept.camera = camera(32, 24)
+    small = kept.render([], [wall])
+    fresh = mo.Renderer(camera(32, 24), background=(0.1, 0.2, 0.3), supersample=1)
+    np.testing.assert_array_equal(small, fresh.render([], [wall]))
+
+
 def test_renderer_rejects_bad_arguments():
     with pytest.raises(TypeError, match="camera must be a Camera"):
         mo.Renderer("camera")
