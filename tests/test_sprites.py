@@ -31,7 +31,7 @@ def cloud(rng, n=40):
     """Particles of every size class, some crossing the image edges, some culled.
 
     At 5 m a metre is 11.6 px, so radii of 0.01-0.2 m are 0.1-2.3 px (below the minimum
-    footprint, the 3 and 4 px windows) and 0.4-3 m are 5-35 px (the general path, and
+    footprint, the 3, 4 and 6 px windows) and 0.4-3 m are 5-35 px (the general path, and
     sprites larger than the fast path's reach). Two particles lie behind the camera and
     beyond the far plane.
     """
@@ -131,14 +131,14 @@ def test_a_point_deposits_its_colour_times_alpha_times_intensity(offset):
 
 
 @pytest.mark.parametrize("falloff", ["smooth", "disc"])
-@pytest.mark.parametrize("radius", [0.02, 0.09, 0.13, 0.4, 1.75])
+@pytest.mark.parametrize("radius", [0.02, 0.09, 0.13, 0.22, 0.4, 1.75])
 def test_a_sprite_deposits_its_footprint_area(falloff, radius):
     """Energy = the unit-peak profile's area at the true radius, below the minimum too.
 
-    The radii are 0.23 px (spread over the minimum footprint), 1 and 1.5 px (the fast
-    path's windows), 4.6 px (its general loop) and 20 px (the general tile path, with
-    the analytic normalisation of boxes over 1024 px², exact to 3e-4), all inside the
-    frame.
+    The radii are 0.23 px (spread over the minimum footprint), 1, 1.5 and 2.5 px (the
+    fast path's 3, 4 and 6 px windows), 4.6 px (its general loop) and 20 px (the general
+    tile path, with the analytic normalisation of boxes over 1024 px², exact to 3e-4),
+    all inside the frame.
     """
     style = SpriteStyle(falloff=falloff)
     frame, _ = one_particle(style, (0.011, 0.007, 0.0), radius)
