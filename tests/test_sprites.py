@@ -381,6 +381,50 @@ class TestBadInput:
             self.call(frame=frame, positions=[[0, 0, 0], [0, 0, 0], [np.nan, 0, 0]])
         assert not frame.color.any()
 
+    @pytest.mark.parametrize("layout", ["c", "state rows", "strided", "read-only"])
+    @pytest.mark.parametrize(("field", "column"), [("positions", 2), ("colors", 3), ("radii", 0)])
+    def test_a_bad_value_is_found_in_every_layout(self, layout, field, column):
+        """The finiteness test reads contiguous columns, whole C arrays, or a copy: a NaN
+        in the last particle's last column is found in each, and good arrays of every
+        layout draw the same image."""
+        rng = np.random.default_rng(5)
+        n = 40_000  # three of the projection's chunks
+        good = {
+            "positions": rng.uniform(-1, 1, (n, 3)),
+            "colors": rng.uniform(0, 1, (n, 4)),
+            "radii": rng.uniform(0.01, 0.1, n),
+        }
+
+        def laid_out(array):
+            array = np.asarray(array, np.float32)
+            if layout == "state rows":  # (c, capacity) rows, the first n columns, transposed
+                rows = np.zeros((*array.shape[1:], n + 7), np.float32).reshape(-1, n + 7)
+                rows[:, :n] = array.reshape(n, -1).T
+                return rows[:, :n].T.reshape(array.shape)
+            if layout == "strided":
+                spread = np.zeros((2 * n, *array.shape[1:]), np.float32)
+                spread[::2] = array
+                return spread[::2]
+            if layout == "read-only":
+                array.flags.writeable = False
+            return array
+
+        for bad in (False, True):
+            arrays = dict(good)
+            if bad:
+                arrays[field] = arrays[field].copy()
+                arrays[field][(-1, column) if arrays[field].ndim == 2 else -1] = np.nan
+            frame = Frame(W, H)
+            call = {name: laid_out(a) for name, a in arrays.items()}
+            if bad:
+                with pytest.raises(ValueError, match=f"{field} must be finite"):
+                    self.call(frame=frame, **call)
+            else:
+                self.call(frame=frame, **call)
+                plain = Frame(W, H)
+                self.call(frame=plain, **{k: np.asarray(a, np.float32) for k, a in good.items()})
+                assert_array_equal(frame.color, plain.color)
+
     def test_frame_and_camera_types(self):
         with pytest.raises(TypeError, match="frame must be a Frame"):
             self.call(frame=np.zeros((H, W, 3)))

@@ -62,16 +62,6 @@ SQRT2 = np.float32(math.sqrt(2.0))
 FLOAT_EXPONENT = np.int32(0x7F800000)
 
 
-@called
-def nonfinite(bits):
-    """Whether a float32, given as its int32 bit pattern, is NaN or infinite.
-
-    Integer arithmetic, because ``fastmath`` lets the compiler assume floats are finite
-    and fold a float test away.
-    """
-    return (bits & FLOAT_EXPONENT) == FLOAT_EXPONENT
-
-
 def inverse_softness(softness: float) -> float:
     """``1 / softness`` [1/m], or :data:`HARD` for a hard depth test (softness 0)."""
     return 1.0 / softness if softness > 0 else float(HARD)

@@ -384,7 +384,7 @@ class SpriteRasterizer:
         status = np.zeros((chunks, 4), np.int64)
         alpha_mean = float(texture[..., 3].mean()) if kind == fp.TEXTURE else 0.0
         additive = style.blend is Blend.ADDITIVE
-        checks = tuple(a.view(np.int32) for a in arrays)
+        checks = _bit_columns(arrays)
         k.project_kernel(kind, streak)(
             camera.packed(), *arrays, checks, style.min_radius_px, style.shutter,
             style.intensity, additive, additive, texture, alpha_mean, self._record,
@@ -472,6 +472,7 @@ def draw_particles(
 _DUMMY_1D = np.zeros(1, np.float32)
 _DUMMY_2D = np.zeros((1, 3), np.float32)
 _DUMMY_TEXTURE = np.zeros((1, 1, 4), np.float32)
+_NO_BITS = np.zeros(0, np.int32)
 for _dummy in (_DUMMY_1D, _DUMMY_2D, _DUMMY_TEXTURE):
     _dummy.flags.writeable = False
 
@@ -489,6 +490,32 @@ def _particle_array(name: str, value, n: int | None, columns: int | None) -> np.
         hint = "" if n is None else " (n = len(positions))"
         raise ValueError(f"{name} must have shape {expected}{hint}, got shape {array.shape}")
     return array
+
+
+def _bit_columns(arrays) -> tuple[np.ndarray, ...]:
+    """The int32 bits of the projection's float32 inputs (positions, colors, radii,
+    rotation, velocities) as contiguous 1-D arrays, for its finiteness test: each
+    column of an array whose columns are contiguous (a particle state's rows, passed
+    transposed), else the whole array in one (copied where it is not contiguous); last,
+    the values each entry holds per particle (0 for the unused ones). The entries of
+    array ``a`` are ``k.CHECK_START[a]:k.CHECK_START[a + 1]``."""
+    entries, widths = [], []
+    for array, columns in zip(arrays, np.diff(k.CHECK_START), strict=True):
+        bits = array.view(np.int32).reshape(array.shape[0], -1)
+        if bits.shape[1] == columns and bits.strides[0] == bits.itemsize:
+            entries += [bits[:, c] for c in range(columns)]
+            widths += [1] * columns
+        else:
+            entries += [np.ascontiguousarray(bits).reshape(-1)] + [_NO_BITS] * (columns - 1)
+            widths += [bits.shape[1]] + [0] * (columns - 1)
+    # All read-only views, so that the tuple has one type (a caller's array may be
+    # read-only) and the kernel one signature.
+    views = []
+    for entry in [*entries, np.array(widths, dtype=np.int32)]:
+        view = entry.view()
+        view.flags.writeable = False
+        views.append(view)
+    return tuple(views)
 
 
 #: Pixels of drawing work counted as one particle's by the one-thread rule (a sprite of
