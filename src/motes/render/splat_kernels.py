@@ -29,6 +29,7 @@ import numba
 import numpy as np
 
 from .._jit import called, device, fma, parallel_kernel
+from .._vector import add_rgb_row, stack_floats
 from ._footprint import (
     BLUE,
     DEPTH,
@@ -186,6 +187,9 @@ def _splat_window(records, s, kind, streak, window, width, height, inv_soft, tex
                 row_total += profile_weight(kind, dx, dy, rf, inv_rf2)
             total += row_total
         scale = ONE / total if total > ZERO else ZERO
+    # A row's weights go to a stack buffer, and the row's RGB floats are brightened four
+    # at a time (add_rgb_row: the same fused multiply-adds, bit for bit).
+    weights = stack_floats()
     for dr in range(window):
         row = row0 + dr
         base = np.uint64(row) * stride
@@ -196,10 +200,10 @@ def _splat_window(records, s, kind, streak, window, width, height, inv_soft, tex
                 segy, inv_seg2,
             )  # fmt: skip
             w = profile_weight(kind, dx, dy, rf, inv_rf2) * scale
-            _add(
-                rgb, pixels, base + np.uint64(col), w, tail_depth + t * rise, inv_soft,
-                red, green, blue,
-            )  # fmt: skip
+            d = tail_depth + t * rise
+            weights[dc] = w * depth_factor(pixels[base + np.uint64(col)], d, inv_soft)
+        first = (base + np.uint64(col0)) * np.uint64(3)
+        add_rgb_row(rgb, first, weights, window, red, green, blue)
 
 
 @called
