@@ -1,5 +1,6 @@
-"""SIMD helpers that Numba does not give: a small float32 buffer on the stack, and a row
-of RGB pixels brightened four floats at a time.
+"""SIMD helpers that Numba does not give: a small float32 buffer on the stack, a row of
+RGB pixels brightened four floats at a time, and a row of a smooth sprite's weights
+eight pixels at a time.
 
 Numba leaves LLVM's SLP vectoriser off, so straight-line code (an unrolled row of a
 sprite's footprint) stays scalar: adding a colour to a row of interleaved RGB pixels
@@ -7,9 +8,13 @@ costs three loads, three fused multiply-adds and three stores per pixel.
 :func:`add_rgb_row` does the same arithmetic as ``<4 x float>`` vectors: one load, one
 fused multiply-add and one store per four floats. Each float gets the very operation the
 scalar code gave it (``fma(colour, weight, old)``, rounded once), so the results are
-bit-identical.
+bit-identical. :func:`smooth_row` and :func:`depth_row` likewise compute a row of a
+smooth footprint's weights and their depth test as ``<8 x float>`` vectors, each lane the
+operations of the scalar :func:`~motes.render._footprint.profile_weight` and
+:func:`~motes.render._footprint.depth_factor` in the same order (``max`` and ``min`` as
+the same comparisons and selects).
 
-Both run as plain Python where there is no compiler (``NUMBA_DISABLE_JIT=1``).
+All run as plain Python where there is no compiler (``NUMBA_DISABLE_JIT=1``).
 """
 
 from __future__ import annotations
@@ -20,8 +25,11 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
-#: Floats in a :func:`stack_floats` buffer.
-STACK_FLOATS = 8
+#: Floats in a :func:`stack_floats` buffer: eight rows of :data:`LANES`.
+STACK_FLOATS = 64
+
+#: Pixels per vector of :func:`smooth_row` and :func:`depth_row`.
+LANES = 8
 
 
 def stack_floats() -> np.ndarray:
@@ -162,4 +170,170 @@ def _add_rgb_row_compiled(rgb, start, weights, count, red, green, blue):
     return None
 
 
-__all__ = ["STACK_FLOATS", "add_rgb_row", "stack_floats"]
+def smooth_row(out, offset, col0, sx, dy, inv_rf2) -> None:
+    """``out[offset + k]`` = the unit-peak smooth profile ``max(1 - r² / R², 0)²`` at the
+    centre of pixel column ``col0 + k``, ``k < LANES``, ``r² = dx² + dy²`` with ``dx =
+    col0 + k + 0.5 - sx`` [px] (float32 throughout, as the drawing loops round them)."""
+    dy2 = np.float32(dy * dy)
+    for k in range(LANES):
+        dx = np.float32(np.float32(col0 + k) + np.float32(0.5)) - np.float32(sx)
+        r2 = _fma32(dx, dx, dy2)
+        a = _fma32(-r2, inv_rf2, np.float32(1.0))
+        s = np.float32(0.0) if np.float32(0.0) > a else a
+        out[offset + k] = np.float32(s * s)
+
+
+def depth_row(weights, profile, offset, depth, pixel, count, scale, d, inv_soft) -> None:
+    """``weights[k] = profile[offset + k] · scale · clamp((depth[pixel + k] - d) ·
+    inv_soft, 0, 1)`` for ``k < LANES`` (:func:`~motes.render._footprint.depth_factor`);
+    ``depth`` is read only where ``k < count`` (the others weigh 0)."""
+    for k in range(LANES):
+        if k >= count:
+            weights[k] = np.float32(0.0)
+            continue
+        f = np.float32(np.float32(depth[pixel + k] - np.float32(d)) * np.float32(inv_soft))
+        f = np.float32(0.0) if np.float32(0.0) > f else f
+        f = np.float32(1.0) if np.float32(1.0) < f else f
+        weights[k] = np.float32(np.float32(profile[offset + k] * np.float32(scale)) * f)
+
+
+def _fma32(a, b, c):
+    return np.float32(np.float64(a) * np.float64(b) + np.float64(c))
+
+
+def _vector_of(builder, ty, value, lanes):
+    """``lanes`` copies of the scalar ``value`` as a vector of ``ty``."""
+    vector = ir.Constant(ir.VectorType(ty, lanes), None)
+    for lane in range(lanes):
+        vector = builder.insert_element(vector, value, ir.Constant(ir.IntType(32), lane))
+    return vector
+
+
+def _fma_vector(builder, vector_type):
+    return cgutils.get_or_insert_function(
+        builder.module,
+        ir.FunctionType(vector_type, [vector_type] * 3),
+        f"llvm.fma.v{vector_type.count}f32",
+    )
+
+
+def _clamp_low(builder, value, low):
+    """``max(value, low)`` as Numba compiles it: ``low if low > value else value``."""
+    return builder.select(builder.fcmp_ordered(">", low, value), low, value)
+
+
+@intrinsic
+def _smooth_row(typingctx, out, offset, col0, sx, dy, inv_rf2):
+    if not (
+        _float32_array(out)
+        and isinstance(offset, types.Integer)
+        and isinstance(col0, types.Integer)
+        and all(v == types.float32 for v in (sx, dy, inv_rf2))
+    ):
+        return None
+
+    def codegen(context, builder, signature, args):
+        out_type, offset_type, col_type = signature.args[:3]
+        real = ir.FloatType()
+        vector = ir.VectorType(real, LANES)
+        i64 = ir.IntType(64)
+        data = context.make_array(out_type)(context, builder, args[0]).data
+        offset_value = context.cast(builder, args[1], offset_type, types.int64)
+        col = context.cast(builder, args[2], col_type, types.int64)
+        sx_value, dy_value, inv_rf2_value = args[3:6]
+        columns = builder.add(
+            _vector_of(builder, i64, col, LANES),
+            ir.Constant(ir.VectorType(i64, LANES), list(range(LANES))),
+        )
+        half = _vector_of(builder, real, ir.Constant(real, 0.5), LANES)
+        centre = builder.fadd(builder.sitofp(columns, vector), half)
+        dx = builder.fsub(centre, _vector_of(builder, real, sx_value, LANES))
+        dy2 = _vector_of(builder, real, builder.fmul(dy_value, dy_value), LANES)
+        fma = _fma_vector(builder, vector)
+        r2 = builder.call(fma, [dx, dx, dy2])
+        one = _vector_of(builder, real, ir.Constant(real, 1.0), LANES)
+        inv_rf2_lanes = _vector_of(builder, real, inv_rf2_value, LANES)
+        a = builder.call(fma, [builder.fneg(r2), inv_rf2_lanes, one])
+        s = _clamp_low(builder, a, ir.Constant(vector, [0.0] * LANES))
+        address = builder.bitcast(builder.gep(data, [offset_value]), vector.as_pointer())
+        builder.store(builder.fmul(s, s), address, align=4)
+        return context.get_dummy_value()
+
+    return types.void(out, offset, col0, sx, dy, inv_rf2), codegen
+
+
+@overload(smooth_row, inline="always")
+def _smooth_row_compiled(out, offset, col0, sx, dy, inv_rf2):
+    if _float32_array(out):
+        return lambda out, offset, col0, sx, dy, inv_rf2: _smooth_row(
+            out, offset, col0, sx, dy, inv_rf2
+        )
+    return None
+
+
+@intrinsic
+def _depth_row(typingctx, weights, profile, offset, depth, pixel, count, scale, d, inv_soft):
+    if not (
+        _float32_array(weights)
+        and _float32_array(profile)
+        and _float32_array(depth)
+        and all(isinstance(v, types.Integer) for v in (offset, pixel, count))
+        and all(v == types.float32 for v in (scale, d, inv_soft))
+    ):
+        return None
+
+    def codegen(context, builder, signature, args):
+        types_ = signature.args
+        real = ir.FloatType()
+        vector = ir.VectorType(real, LANES)
+        i64 = ir.IntType(64)
+        mask_type = ir.VectorType(ir.IntType(1), LANES)
+        weights_data = context.make_array(types_[0])(context, builder, args[0]).data
+        profile_data = context.make_array(types_[1])(context, builder, args[1]).data
+        depth_data = context.make_array(types_[3])(context, builder, args[3]).data
+        offset_value = context.cast(builder, args[2], types_[2], types.int64)
+        pixel = context.cast(builder, args[4], types_[4], types.int64)
+        count = context.cast(builder, args[5], types_[5], types.int64)
+        scale, d, inv_soft = args[6:9]
+        lanes = ir.Constant(ir.VectorType(i64, LANES), list(range(LANES)))
+        mask = builder.icmp_signed("<", lanes, _vector_of(builder, i64, count, LANES))
+        masked_load = cgutils.get_or_insert_function(
+            builder.module,
+            ir.FunctionType(vector, [vector.as_pointer(), ir.IntType(32), mask_type, vector]),
+            f"llvm.masked.load.v{LANES}f32.p0v{LANES}f32",
+        )
+        depth_address = builder.bitcast(builder.gep(depth_data, [pixel]), vector.as_pointer())
+        zero = ir.Constant(vector, [0.0] * LANES)
+        align = ir.Constant(ir.IntType(32), 4)
+        opaque = builder.call(masked_load, [depth_address, align, mask, zero])
+        f = builder.fmul(
+            builder.fsub(opaque, _vector_of(builder, real, d, LANES)),
+            _vector_of(builder, real, inv_soft, LANES),
+        )
+        f = _clamp_low(builder, f, zero)
+        one = ir.Constant(vector, [1.0] * LANES)
+        f = builder.select(builder.fcmp_ordered("<", one, f), one, f)  # min(f, 1)
+        profile_address = builder.bitcast(
+            builder.gep(profile_data, [offset_value]), vector.as_pointer()
+        )
+        w = builder.fmul(
+            builder.load(profile_address, align=4), _vector_of(builder, real, scale, LANES)
+        )
+        w = builder.select(mask, builder.fmul(w, f), zero)
+        builder.store(w, builder.bitcast(weights_data, vector.as_pointer()), align=4)
+        return context.get_dummy_value()
+
+    sig = types.void(weights, profile, offset, depth, pixel, count, scale, d, inv_soft)
+    return sig, codegen
+
+
+@overload(depth_row, inline="always")
+def _depth_row_compiled(weights, profile, offset, depth, pixel, count, scale, d, inv_soft):
+    if _float32_array(weights) and _float32_array(profile) and _float32_array(depth):
+        return lambda weights, profile, offset, depth, pixel, count, scale, d, inv_soft: _depth_row(
+            weights, profile, offset, depth, pixel, count, scale, d, inv_soft
+        )
+    return None
+
+
+__all__ = ["LANES", "STACK_FLOATS", "add_rgb_row", "depth_row", "smooth_row", "stack_floats"]

@@ -29,7 +29,7 @@ import numba
 import numpy as np
 
 from .._jit import called, device, fma, parallel_kernel
-from .._vector import add_rgb_row, stack_floats
+from .._vector import LANES, add_rgb_row, depth_row, smooth_row, stack_floats
 from ._footprint import (
     BLUE,
     DEPTH,
@@ -40,6 +40,7 @@ from ._footprint import (
     POINT,
     RADIUS,
     RED,
+    SMOOTH,
     SX,
     SY,
     TAIL_DEPTH,
@@ -174,6 +175,26 @@ def _splat_window(records, s, kind, streak, window, width, height, inv_soft, tex
         _splat_any(records, s, kind, streak, width, height, inv_soft, texture, pixels, rgb)
         return
     stride = np.uint64(width)
+    weights = stack_floats()
+    if kind == SMOOTH and not streak:
+        # Eight pixels of a row at a time (motes._vector): each row's profile computed
+        # once and kept for the drawing pass; per pixel the operations of the loops below.
+        profile = stack_floats()
+        total = ZERO
+        for dr in range(window):
+            dy = (np.float32(row0 + dr) + HALF) - sy
+            smooth_row(profile, dr * LANES, col0, sx, dy, inv_rf2)
+            row_total = ZERO
+            for dc in range(window):
+                row_total += profile[dr * LANES + dc]
+            total += row_total
+        scale = ONE / total if total > ZERO else ZERO
+        d = tail_depth + ONE * rise
+        for dr in range(window):
+            pixel = np.uint64(row0 + dr) * stride + np.uint64(col0)
+            depth_row(weights, profile, dr * LANES, pixels, pixel, window, scale, d, inv_soft)
+            add_rgb_row(rgb, pixel * np.uint64(3), weights, window, red, green, blue)
+        return
     scale = ONE  # the bilinear tent's weights sum to 1 exactly
     if kind != POINT or streak:
         total = ZERO
@@ -189,7 +210,6 @@ def _splat_window(records, s, kind, streak, window, width, height, inv_soft, tex
         scale = ONE / total if total > ZERO else ZERO
     # A row's weights go to a stack buffer, and the row's RGB floats are brightened four
     # at a time (add_rgb_row: the same fused multiply-adds, bit for bit).
-    weights = stack_floats()
     for dr in range(window):
         row = row0 + dr
         base = np.uint64(row) * stride
