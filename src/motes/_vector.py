@@ -217,6 +217,13 @@ def _fma_vector(builder, vector_type):
     )
 
 
+def _pointer_suffix(pointer_type) -> str:
+    """An intrinsic's name suffix for a pointer argument: ``p0v8f32`` for a typed
+    ``<8 x float>*``, ``p0`` where llvmlite builds opaque pointers (``ptr``)."""
+    text = str(pointer_type)
+    return "p0" if text == "ptr" else f"p0v{pointer_type.pointee.count}f32"
+
+
 def _clamp_low(builder, value, low):
     """``max(value, low)`` as Numba compiles it: ``low if low > value else value``."""
     return builder.select(builder.fcmp_ordered(">", low, value), low, value)
@@ -300,7 +307,7 @@ def _depth_row(typingctx, weights, profile, offset, depth, pixel, count, scale, 
         masked_load = cgutils.get_or_insert_function(
             builder.module,
             ir.FunctionType(vector, [vector.as_pointer(), ir.IntType(32), mask_type, vector]),
-            f"llvm.masked.load.v{LANES}f32.p0v{LANES}f32",
+            f"llvm.masked.load.v{LANES}f32.{_pointer_suffix(vector.as_pointer())}",
         )
         depth_address = builder.bitcast(builder.gep(depth_data, [pixel]), vector.as_pointer())
         zero = ir.Constant(vector, [0.0] * LANES)
