@@ -29,7 +29,7 @@ import numba
 import numpy as np
 
 from .._jit import called, device, fma, parallel_kernel
-from .._vector import LANES, add_rgb_row, depth_row, smooth_row, stack_floats
+from .._vector import LANES, STACK_FLOATS, add_rgb_row, depth_row, smooth_row, stack_floats
 from ._footprint import (
     BLUE,
     DEPTH,
@@ -65,6 +65,8 @@ from .tiles import CHUNK
 #: (a 5 px window beside it saved 0.2 ms more, for another kernel to compile).
 WINDOWS = (3, 4, 6, 0)
 LISTS = len(WINDOWS)
+# A window's row is one vector of weights, and its rows share one stack buffer.
+assert max(WINDOWS) <= LANES and max(WINDOWS) * LANES <= STACK_FLOATS
 
 
 @parallel_kernel
