@@ -25,6 +25,8 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
+from ._jit import fma
+
 #: Floats in a :func:`stack_floats` buffer: eight rows of :data:`LANES`.
 STACK_FLOATS = 64
 
@@ -80,7 +82,7 @@ def add_rgb_row(rgb, start, weights, count, red, green, blue) -> None:
     for k in range(count):
         for c in range(3):
             q = start + 3 * k + c
-            rgb[q] = np.float32(np.float64(colour[c]) * np.float64(weights[k]) + np.float64(rgb[q]))
+            rgb[q] = fma(colour[c], np.float32(weights[k]), rgb[q])
 
 
 def _float32_array(value) -> bool:
@@ -177,8 +179,8 @@ def smooth_row(out, offset, col0, sx, dy, inv_rf2) -> None:
     dy2 = np.float32(dy * dy)
     for k in range(LANES):
         dx = np.float32(np.float32(col0 + k) + np.float32(0.5)) - np.float32(sx)
-        r2 = _fma32(dx, dx, dy2)
-        a = _fma32(-r2, inv_rf2, np.float32(1.0))
+        r2 = fma(dx, dx, dy2)
+        a = fma(-r2, np.float32(inv_rf2), np.float32(1.0))
         s = np.float32(0.0) if np.float32(0.0) > a else a
         out[offset + k] = np.float32(s * s)
 
@@ -195,10 +197,6 @@ def depth_row(weights, profile, offset, depth, pixel, count, scale, d, inv_soft)
         f = np.float32(0.0) if np.float32(0.0) > f else f
         f = np.float32(1.0) if np.float32(1.0) < f else f
         weights[k] = np.float32(np.float32(profile[offset + k] * np.float32(scale)) * f)
-
-
-def _fma32(a, b, c):
-    return np.float32(np.float64(a) * np.float64(b) + np.float64(c))
 
 
 def _vector_of(builder, ty, value, lanes):
