@@ -2,6 +2,7 @@
 
 import math
 
+import numba
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -53,6 +54,27 @@ def test_kernels_match_the_papers_closed_forms():
     r = np.linspace(0.01, 0.09, 9)
     assert_allclose([sph.viscosity_laplacian(x, H) for x in r], [lap(x) for x in r], rtol=1e-6)
     assert sph.poly6(H * H * 1.01, H) == 0 and sph.spiky_gradient_scale(0.0, H) == 0
+
+
+@pytest.mark.parametrize("h", [1e-5, 0.1, 1e4])
+def test_float32_shapes_scale_to_the_kernels_at_any_size(h):
+    # The pair loops' float32 shapes times their float64 units give the kernels to
+    # float32 round-off, at sizes where POLY6 / h⁹ alone leaves float32's range.
+    for q in np.linspace(0.0, 1.1, 23):
+        q2 = np.float32(q * q)
+        shape = sph.poly6_shape(q2)
+        assert shape * sph.POLY6 / h**3 == pytest.approx(sph.poly6(float(q2) * h * h, h),
+                                                         rel=1e-6, abs=1e-12 / h**3)  # fmt: skip
+        gradient = sph.spiky_gradient_shape(np.float32(q))
+        r = float(np.float32(q)) * h
+        assert gradient * sph.SPIKY_GRAD / h**5 == pytest.approx(
+            sph.spiky_gradient_scale(r, h), rel=1e-6, abs=1e-12 / h**5
+        )
+    assert sph.spiky_gradient_shape(np.float32(0.0)) == 0
+    # Compiled, they stay float32 (a float64 constant would widen the pair loops).
+    for shape in (sph.poly6_shape, sph.spiky_gradient_shape):
+        (signature,) = [s for s in shape.nopython_signatures if s.args == (numba.float32,)]
+        assert signature.return_type == numba.float32
 
 
 def test_wall_fraction_is_the_half_space_integral():

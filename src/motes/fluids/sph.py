@@ -50,6 +50,29 @@ def spiky_gradient_scale(r, h):
 
 
 @device
+def poly6_shape(q2):
+    """``(1 - q²)³`` in float32 at ``q2 = r² / h²`` (float32), 0 beyond ``h``:
+    ``W_poly6(r) = POLY6 / h³ · poly6_shape(r² / h²)``.
+
+    The kernels' pair loops compute in float32 (eight lanes a vector rather than four)
+    from dimensionless shapes, and scale the float64 sums by the units afterwards: the
+    shapes stay within [0, 1] whatever ``h``, where ``POLY6 / h⁹`` alone leaves float32's
+    range below h = 0.06 mm.
+    """
+    d = max(np.float32(1.0) - q2, np.float32(0.0))
+    return d * d * d
+
+
+@device
+def spiky_gradient_shape(q):
+    """``(1 - q)² / q`` in float32 at ``q = r / h`` (float32), 0 at ``q = 0`` and beyond 1:
+    ``∇W_spiky(r⃗) = SPIKY_GRAD / h⁵ · spiky_gradient_shape(r / h) · r⃗`` [1/m⁴]."""
+    zero = np.float32(0.0)
+    d = max(np.float32(1.0) - q, zero)
+    return d * d / max(q, np.float32(1e-30)) * np.float32(q > zero)
+
+
+@device
 def viscosity(r, h):
     """Viscosity kernel [1/m³] at distance ``r`` > 0 [m]."""
     if r >= h:
