@@ -186,6 +186,23 @@ def test_deterministic_and_thread_count_independent(rng):
         assert_array_equal(a.state.ids, x.state.ids)
 
 
+def test_permuting_the_state_reorders_every_array_as_indexing_does(rng):
+    model = FluidModel(spacing=0.05, phases=(Phase(1000.0), Phase(2000.0)))
+    pos = lattice((0, 0, 0), (0.4, 0.4, 0.4), 0.05)
+    n = pos.shape[1]
+    water = Fluid(model, pos, velocities=rng.normal(size=(3, n)), phase=rng.integers(0, 2, n))
+    s = water.state
+    s.density[:] = rng.random(n)
+    s.pressure[:] = rng.random(n)
+    before = dataclasses.replace(s)
+    order = rng.permutation(n)
+    s.permute(order)
+    for name in ("positions", "velocities", "phase", "ids", "density", "pressure"):
+        old, new = getattr(before, name), getattr(s, name)
+        assert new.dtype == old.dtype and new.flags.c_contiguous
+        assert_array_equal(new, old[..., order])
+
+
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [

@@ -9,7 +9,7 @@ from .. import _validate as check
 from .._jit import threads_for
 from ..geometry.layout import ROW
 from ..spatial.grid import UniformGrid
-from ..spatial.kernels import compact_rows
+from ..spatial.kernels import compact_rows, permute_rows
 from ..spatial.neighbors import Neighbors
 from ..state import Field, ParticleState
 from . import kernels
@@ -196,12 +196,12 @@ class Flock:
             dst = self._spare.get(src.shape)
             if dst is None or dst is src:
                 dst = np.empty_like(src)
-            kernels.permute_rows(src, order, dst)
+            permute_rows(src, order, dst)
             setattr(self, name, dst)
             self._spare[src.shape] = src
         self.ids = np.take(self.ids, order)
         packed = np.empty((2, self.n), np.float32)
-        kernels.permute_rows(np.stack([self.flap, self.bank]), order, packed)
+        permute_rows(np.stack([self.flap, self.bank]), order, packed)
         self.flap, self.bank = packed[0], packed[1]
         for name, f in self.attributes.items():
             self.attributes[name] = Field(np.take(f.data, order, axis=-1), f.unit, f.doc)

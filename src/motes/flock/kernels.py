@@ -733,15 +733,3 @@ def neighbor_lists(pos, head, cell_start, origin, inv_cell, dims, r2, cos_half, 
                             out[i, min(found, last)] = j
                             found += 1
             count[i] = found
-
-
-@parallel_kernel
-def permute_rows(src, order, dst):
-    """``dst[:, k] = src[:, order[k]]`` for (c, n) arrays, in parallel blocks (the
-    flock's arrays into the grid's order each step; ``np.take`` runs on one thread)."""
-    n = order.shape[0]
-    for block in prange(block_count(n)):
-        start, stop = block_bounds(block, n)
-        for r in range(src.shape[0]):
-            for k in range(start, stop):
-                dst[r, k] = src[r, order[k]]

@@ -22,6 +22,7 @@ from ..forces.apply import add_forces, check_force
 from ..forces.base import Force
 from ..spatial import UniformGrid, spatial_index
 from ..spatial.index import sorted_neighbors
+from ..spatial.kernels import permute_rows
 from ..state import Field, ParticleState
 from . import kernels
 from .boundaries import MeshWall, pack
@@ -75,12 +76,23 @@ class FluidState:
 
     def permute(self, order: np.ndarray) -> None:
         """Reorder every array so that new particle ``k`` is old particle ``order[k]``."""
-        self.positions = self.positions[:, order]
-        self.velocities = self.velocities[:, order]
-        self.phase = self.phase[order]
-        self.ids = self.ids[order]
-        self.density = self.density[order]
-        self.pressure = self.pressure[order]
+        self.positions = _permuted(self.positions, order)
+        self.velocities = _permuted(self.velocities, order)
+        self.phase = _permuted(self.phase, order)
+        self.ids = _permuted(self.ids, order)
+        self.density = _permuted(self.density, order)
+        self.pressure = _permuted(self.pressure, order)
+
+
+def _permuted(values: np.ndarray, order: np.ndarray) -> np.ndarray:
+    """A new C array, ``values[..., order]`` of a (c, n) or (n,) array, in parallel."""
+    out = np.empty(values.shape, values.dtype)
+    source = np.ascontiguousarray(values)
+    if values.ndim == 1:
+        permute_rows(source[None], order, out[None])
+    else:
+        permute_rows(source, order, out)
+    return out
 
 
 def lattice_cells(lower, upper, spacing: float) -> np.ndarray:
@@ -332,8 +344,8 @@ class Fluid:
         # Sort into the structure's order: neighbours then sit in nearby memory.
         begin, end, nbr, order = sorted_neighbors(self._index, predicted, h)
         s.permute(order)
-        predicted = np.ascontiguousarray(predicted[:, order])
-        depth = depth[order]
+        predicted = _permuted(predicted, order)
+        depth = _permuted(depth, order)
 
         weight = d["weight"][s.phase].astype(np.float32)
         delta = np.empty(n, np.float32)

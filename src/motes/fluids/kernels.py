@@ -318,6 +318,9 @@ def exchange(
         coefficients[4], coefficients[5], coefficients[6],
     )  # fmt: skip
     h2 = h * h
+    # XSPH in float32 (the masses, densities and velocities are), from poly6's shape.
+    inv_h2 = np.float32(1.0 / h2)
+    xsph_scale = np.float32(xsph * 4.0 * POLY6 / h**3)
     lecture_on = k_visc > 0.0
     pairs_on = repulsion > 0.0 or gamma.max() > 0.0
     nx, ny, nz = normals[0], normals[1], normals[2]
@@ -352,7 +355,8 @@ def exchange(
                     mj = moving[3, t]
                     # xsph μ_ij 2 W / (δ_i + δ_j) with one division; symmetric in i, j.
                     mimj = mi * mj
-                    smooth = xsph * 4.0 * mimj * poly6(r2, h) / ((mi + mj) * (di + near[3, t]))
+                    smooth = (xsph_scale * mimj * poly6_shape(r2 * inv_h2)
+                              / ((mi + mj) * (di + near[3, t])))  # fmt: skip
                     terms[0, t] = smooth * (moving[0, t] - ui)
                     terms[1, t] = smooth * (moving[1, t] - wi)
                     terms[2, t] = smooth * (moving[2, t] - si)

@@ -152,6 +152,20 @@ def query_radius(
 
 
 @parallel_kernel
+def permute_rows(src, order, dst):
+    """``dst[:, k] = src[:, order[k]]`` for (c, n) arrays, in parallel blocks: a solver's
+    arrays into the grid's order each step (``np.take`` and fancy indexing run on one
+    thread: 4.8 ms for a 100,000-particle liquid's state against about 1). A 1-D array
+    goes as its (1, n) view, ``a[None]``."""
+    n = order.shape[0]
+    for block in prange(block_count(n)):
+        start, stop = block_bounds(block, n)
+        for r in range(src.shape[0]):
+            for k in range(start, stop):
+                dst[r, k] = src[r, order[k]]
+
+
+@parallel_kernel
 def compact_rows(buffer, count, row_of, entry_map, offsets, out):
     """Copy fixed-capacity rows into CSR form.
 
