@@ -132,10 +132,11 @@ def test_density_lambda_and_correction_match_the_twin(rng):
     lists, _ = csr(p, h)
     pf = p.T.astype(np.float32)
     delta, lam = np.empty(n, np.float32), np.empty(n, np.float32)
+    wall_gradient = np.empty((3, n))
     scale = sph.wall_scale(0.05, h)
     kernels.density_lambda(
         *pf, *lists.ranges, weight, rows, h, 0.05, scale, 1 / delta0, 30.0,
-        delta, lam,
+        delta, lam, wall_gradient,
     )  # fmt: skip
     ref_delta, ref_lam = naive.density_lambda(
         pf.T.astype(float), weight.astype(float), rows, h, 0.05, scale, delta0, 30.0
@@ -147,7 +148,7 @@ def test_density_lambda_and_correction_match_the_twin(rng):
     out = np.empty((3, n), np.float32)
     radius = 0.025
     kernels.correction(
-        *pf, *lists.ranges, weight, lam, rows, h, 0.05, scale, 1 / delta0,
+        *pf, *lists.ranges, weight, lam, rows, h, wall_gradient, 1 / delta0,
         1e-4, 1e-3, radius, out,
     )  # fmt: skip
     p64 = pf.T.astype(float)

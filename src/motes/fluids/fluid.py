@@ -352,19 +352,19 @@ class Fluid:
         lam = np.empty(n, np.float32)
         lam_sum = np.zeros(n, np.float32)
         spare = np.empty((3, n), np.float32)
+        wall_gradient = np.empty((3, n))
         inv_delta0 = 1.0 / d["delta0"]
         for _ in range(m.iterations):
             kernels.density_lambda(
                 *predicted, begin, end, nbr, weight, rows, h, m.spacing, d["wall_scale"],
-                inv_delta0, d["eps"], delta, lam,
+                inv_delta0, d["eps"], delta, lam, wall_gradient,
             )  # fmt: skip
             # With reacting walls the push-out runs as its own pass, so that what it
             # moves can be counted (same result: each particle's push is its own).
             reacting = bool(self.reactions)
             kernels.correction(
-                *predicted, begin, end, nbr, weight, lam, rows, h, m.spacing, d["wall_scale"],
-                inv_delta0, d["tensile_k"], d["inv_wq"], _NO_PUSH if reacting else radius,
-                spare,
+                *predicted, begin, end, nbr, weight, lam, rows, h, wall_gradient, inv_delta0,
+                d["tensile_k"], d["inv_wq"], _NO_PUSH if reacting else radius, spare,
             )  # fmt: skip
             if reacting:
                 masses = d["mass"][s.phase]

@@ -155,15 +155,17 @@ def gather(nbr, first, size, x, y, z, value, far, near):
 
 @parallel_kernel
 def density_lambda(
-    px, py, pz, begin, end, nbr, weight, rows, h, spacing, wall_scale, inv_delta0, eps, delta, lam
-):
+    px, py, pz, begin, end, nbr, weight, rows, h, spacing, wall_scale, inv_delta0, eps, delta, lam,
+    wall_gradient,
+):  # fmt: skip
     """Number density and the Lagrange multiplier of each density constraint.
 
     Macklin & Müller 2013, eqs. 1-11, with the constraint ``C_i = δ_i / δ₀ - 1`` on the
     number density ``δ_i = Σ_j W_poly6(p_i - p_j) + δ₀ (1 - Q)`` [1/m³] (the walls'
     share, :func:`walls`), clamped at 0 so that the free surface does not pull
     particles together, and masses entering as weights ``weight = m_ref / m``:
-    ``λ_i = -C_i / (Σ_k w_k |∇_k C_i|² + ε)``.
+    ``λ_i = -C_i / (Σ_k w_k |∇_k C_i|² + ε)``. ``wall_gradient`` (float64, (3, n))
+    receives ``∇(1 - Q)`` [1/m] for :func:`correction` at the same positions.
     """
     n = px.shape[0]
     inv_h2 = np.float32(1.0 / (h * h))
@@ -210,6 +212,9 @@ def density_lambda(
             gz *= gradient_scale
             sum_g2 *= gradient_scale * gradient_scale
             free, wx, wy, wz = walls(rows, xi, yi, zi, h, spacing, wall_scale)
+            wall_gradient[0, i] = wx
+            wall_gradient[1, i] = wy
+            wall_gradient[2, i] = wz
             density += (1.0 - free) / inv_delta0
             gx += wx
             gy += wy
@@ -221,7 +226,7 @@ def density_lambda(
 
 @parallel_kernel
 def correction(
-    px, py, pz, begin, end, nbr, weight, lam, rows, h, spacing, wall_scale, inv_delta0, k_corr,
+    px, py, pz, begin, end, nbr, weight, lam, rows, h, wall_gradient, inv_delta0, k_corr,
     inv_wq, radius, out,
 ):  # fmt: skip
     """Corrected positions ``p_i + Δp_i`` [m] (Macklin & Müller 2013, eqs. 12-14), pushed
@@ -229,8 +234,9 @@ def correction(
 
     ``Δp_i = w_i / δ₀ Σ_j (λ_i + λ_j + s_corr) ∇W_spiky(p_i - p_j) + w_i λ_i ∇(1 - Q)``
     with the tensile term ``s_corr = -k (W(p_i - p_j) / W(Δq))⁴`` [m²]
-    (``inv_wq = 1 / W(Δq)``). Jacobi: every particle reads the positions before the
-    correction, so ``out`` must not alias them.
+    (``inv_wq = 1 / W(Δq)``) and ``∇(1 - Q)`` the walls' gradient :func:`density_lambda`
+    left in ``wall_gradient`` at these positions. Jacobi: every particle reads the
+    positions before the correction, so ``out`` must not alias them.
     """
     n = px.shape[0]
     inv_h2 = np.float32(1.0 / (h * h))
@@ -272,10 +278,9 @@ def correction(
             ax *= wi * gradient_scale
             ay *= wi * gradient_scale
             az *= wi * gradient_scale
-            _, wx, wy, wz = walls(rows, xi, yi, zi, h, spacing, wall_scale)
-            ax += wi * li * wx
-            ay += wi * li * wy
-            az += wi * li * wz
+            ax += wi * li * wall_gradient[0, i]
+            ay += wi * li * wall_gradient[1, i]
+            az += wi * li * wall_gradient[2, i]
             x, y, z, _ = push_out(rows, radius, xi + ax, yi + ay, zi + az)
             out[0, i] = x
             out[1, i] = y
