@@ -124,11 +124,14 @@ def csr(p, h):
     return grid.neighbors(h), grid
 
 
-def test_density_lambda_and_correction_match_the_twin(rng):
+@pytest.mark.parametrize("weights", ["mixed", "one phase"])
+def test_density_lambda_and_correction_match_the_twin(rng, weights):
     p, rows = scene(rng)
     n, h = len(p), 0.1
     delta0 = sph.lattice_number_density(0.05, h)
-    weight = rng.uniform(0.5, 1.5, n).astype(np.float32)
+    # One weight for all takes the kernel's path that gathers no weights.
+    weight = rng.uniform(0.5, 1.5, n) if weights == "mixed" else np.full(n, 0.8)
+    weight = weight.astype(np.float32)
     lists, _ = csr(p, h)
     pf = p.T.astype(np.float32)
     delta, lam = np.empty(n, np.float32), np.empty(n, np.float32)
@@ -212,11 +215,13 @@ def test_wall_share_is_the_midpoint_rule_of_the_half_space_integral():
         assert sph.wall_share(x, s, H, scale)[1] == pytest.approx(numeric, rel=1e-5)
 
 
-def test_exchange_matches_the_twin_and_the_lecture(rng):
+@pytest.mark.parametrize("phases", [2, 1])
+def test_exchange_matches_the_twin_and_the_lecture(rng, phases):
     p, _ = scene(rng, n_side=5)
     n, h = len(p), 0.1
     v = rng.normal(0, 1, (n, 3))
-    phase = rng.integers(0, 2, n).astype(np.int32)
+    # One phase: one mass, the kernel's path that gathers no masses.
+    phase = rng.integers(0, phases, n).astype(np.int32)
     mass = np.array([0.125, 0.2])[phase]
     delta = rng.uniform(900, 1100, n)
     gamma = np.array([0.5, 2.0])

@@ -127,7 +127,7 @@ def project(px, py, pz, rows, radius, depth):
 
 
 @device
-def gather(nbr, first, size, x, y, z, value, far, near):
+def gather(nbr, first, size, x, y, z, value, far, near, with_value=True):
     """Copy ``x, y, z`` and ``value`` of the neighbours ``nbr[first : first + size]``
     into rows 0-3 of ``near`` (float32, (4, CHUNK)); returns the count padded to a
     multiple of 8.
@@ -136,6 +136,9 @@ def gather(nbr, first, size, x, y, z, value, far, near):
     particle, so that every kernel term of it is exactly zero) with value 0: the
     kernel's loop over the entries then runs in whole vectors of 8, with no scalar
     remainder (5 % faster at ~27 neighbours, where the remainder was ~3 of them).
+    Without ``with_value``, row 3 is left as it is: a kernel whose ``value`` is one
+    number for every particle (:func:`uniform`) fills it once, and each neighbour costs
+    three copies instead of four.
     """
     for t in range(size):
         # Unsigned: Numba then skips the negative-index wraparound (25 % of this loop).
@@ -143,14 +146,27 @@ def gather(nbr, first, size, x, y, z, value, far, near):
         near[0, t] = x[j]
         near[1, t] = y[j]
         near[2, t] = z[j]
-        near[3, t] = value[j]
+        if with_value:
+            near[3, t] = value[j]
     padded = (size + np.uint64(7)) // np.uint64(8) * np.uint64(8)
     for t in range(size, padded):
         near[0, t] = far[0]
         near[1, t] = far[1]
         near[2, t] = far[2]
-        near[3, t] = 0.0
+        if with_value:
+            near[3, t] = 0.0
     return padded
+
+
+@device
+def uniform(values):
+    """Whether every entry of ``values`` (1-D, at least one) equals the first: a liquid
+    of one phase has one weight and one mass, and its gathers skip them."""
+    first = values[0]
+    for i in range(values.shape[0]):  # noqa: SIM110 (a generator does not compile)
+        if values[i] != first:
+            return False
+    return True
 
 
 @parallel_kernel
@@ -174,9 +190,13 @@ def density_lambda(
     density_scale = POLY6 / h**3
     gradient_scale = SPIKY_GRAD / h**5 * inv_delta0
     step = np.uint64(CHUNK)
+    # One phase: one weight, filled into the neighbours' row once (see gather).
+    same_weight = n > 0 and uniform(weight)
     for block in prange(block_count(n)):
         start, stop = block_bounds(block, n)
         near = np.empty((4, CHUNK), np.float32)
+        if same_weight:
+            near[3, :] = weight[0]
         terms = np.empty((5, CHUNK), np.float32)
         for i in range(start, stop):
             xi, yi, zi = px[i], py[i], pz[i]
@@ -189,7 +209,7 @@ def density_lambda(
                 size = min(last - first, step)
                 # Gathered, computed and summed in three loops: the middle one vectorises
                 # (see the module docstring).
-                count = gather(nbr, first, size, px, py, pz, weight, far, near)
+                count = gather(nbr, first, size, px, py, pz, weight, far, near, not same_weight)
                 for t in range(count):
                     rx, ry, rz = xi - near[0, t], yi - near[1, t], zi - near[2, t]
                     r2 = rx * rx + ry * ry + rz * rz
@@ -330,10 +350,13 @@ def exchange(
     pairs_on = repulsion > 0.0 or gamma.max() > 0.0
     nx, ny, nz = normals[0], normals[1], normals[2]
     step = np.uint64(CHUNK)
+    same_mass = n > 0 and uniform(mass)
     for block in prange(block_count(n)):
         start, stop = block_bounds(block, n)
         near = np.empty((4, CHUNK), np.float32)  # x, y, z, δ of each neighbour
         moving = np.empty((4, CHUNK), np.float32)  # v, m
+        if same_mass:
+            moving[3, :] = mass[0]
         surface = np.empty((4, CHUNK), np.float32)  # n, phase
         terms = np.empty((3, CHUNK))
         for i in range(start, stop):
@@ -348,9 +371,10 @@ def exchange(
             while first < last:
                 size = min(last - first, step)
                 # Gathered, computed and summed in three loops (see the module docstring);
-                # padding entries have mass 0 and lie beyond h: all their terms are 0.
+                # padding entries lie beyond h (and have mass 0 unless every mass is
+                # one): all their terms are 0.
                 count = gather(nbr, first, size, px, py, pz, delta, far, near)
-                gather(nbr, first, size, vx, vy, vz, mass, far, moving)
+                gather(nbr, first, size, vx, vy, vz, mass, far, moving, not same_mass)
                 # XSPH, in a loop of its own so that it vectorises; the terms that may be
                 # off are added in loops of their own (the exponential, the square root
                 # and the phase test would keep XSPH's loop scalar).
