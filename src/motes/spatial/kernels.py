@@ -134,20 +134,14 @@ def query_radius(
                             dy = np.float64(sy[c]) - py
                             dz = np.float64(sz[c]) - pz
                             hit[t] = dx * dx + dy * dy + dz * dz <= r2
+                        if exclude_self and (chunk <= q) and (q < chunk + size):
+                            # The point itself (distance 0), in its own cell's run: not
+                            # kept. Shifting it out of the stored row afterwards cost 10 %.
+                            hit[q - chunk] = 0
                         for t in range(size):
                             out[q, min(found, last)] = chunk + t
                             found += hit[t]
                         chunk += size
-            if exclude_self:
-                # The point found itself (distance 0): drop it from its stored entries,
-                # keeping their order. Testing each candidate against it cost 30 %.
-                stored = min(found, last)
-                k = 0
-                while k < stored and out[q, k] != q:
-                    k += 1
-                for t in range(k, stored - 1):
-                    out[q, t] = out[q, t + 1]
-                found -= 1
             count[q] = found
 
 
