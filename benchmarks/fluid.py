@@ -13,7 +13,8 @@ Run from the repository root::
   Both densities are compared (they must agree) and the time of motes' CSR neighbour
   lists (what the solver uses) is reported beside it;
 - **step**: one ``Fluid.step`` of 100,000 particles collapsing in a tank (position-based
-  fluids, 4 iterations, XSPH, one internal step of 1/240 s), after warm-up steps.
+  fluids, 4 iterations, XSPH, one internal step of 1/240 s), after warm-up steps, with
+  all threads and with one (``step_100k_1thread_ms``: steadier on a shared machine).
 
 Timings are the best of several calls after warm-up (the median beside it); the cores
 other processes kept busy are reported too: on a shared machine they inflate timings.
@@ -21,6 +22,7 @@ other processes kept busy are reported too: on a shared machine they inflate tim
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -89,6 +91,14 @@ def measure(quick: bool) -> dict:
     for _ in range(3):
         water.step(DT)
     step = time_calls(lambda: water.step(DT), repeat=max(3, repeat // 2), warmup=1)
+    # One thread too: on a shared machine it moves by a few % where two threads move by
+    # tens (a parallel launch waits for the slower core).
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        one = time_calls(lambda: water.step(DT), repeat=max(3, repeat // 2), warmup=1)
+    finally:
+        numba.set_num_threads(threads)
 
     figures = {
         "neighbors_65k_ms": ours.best * 1e3,
@@ -99,6 +109,7 @@ def measure(quick: bool) -> dict:
         "mean_neighbors": float(counts.mean()),
         "step_100k_ms": step.best * 1e3,
         "step_100k_median_ms": step.median * 1e3,
+        "step_100k_1thread_ms": one.best * 1e3,
         "step_particles": len(water),
         "step_density_error": water.density_error,
         "sizes": {"neighbors": n, "step": len(water)},
@@ -112,6 +123,7 @@ def measure(quick: bool) -> dict:
         ("speed-up", f"{theirs.best / ours.best:8.1f}x"),
         ("fluid step", f"{step.best * 1e3:8.2f} ms for {len(water):,} particles "
                        f"(median {step.median * 1e3:.2f})"),
+        ("fluid step, one thread", f"{one.best * 1e3:8.2f} ms"),
     ]  # fmt: skip
     print(table(rows, title="Fluid: neighbours + density, full step"))
     figures.update(machine())

@@ -6,7 +6,12 @@ from benchmark_contract import quick_figures
 
 
 def test_fluid_quick_run_reports_positive_finite_figures(capsys):
-    required = ("neighbors_65k_ms", "neighbors_speedup_vs_ckdtree", "step_100k_ms")
+    required = (
+        "neighbors_65k_ms",
+        "neighbors_speedup_vs_ckdtree",
+        "step_100k_ms",
+        "step_100k_1thread_ms",
+    )
     figures = quick_figures(fluid, capsys, required)
     assert figures["quick"] is True
     assert 30 < figures["mean_neighbors"] < 45
