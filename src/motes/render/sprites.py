@@ -402,7 +402,9 @@ class SpriteRasterizer:
         starts = np.empty(self._counts.shape[1] + 1, np.int64)
         scan_counts(self._counts, starts)
         records = self._buffer("sorted", (count, self._record.shape[1]))
-        splat.scatter_records(self._record, self._tile_of, self._counts, records)
+        splat.scatter_records(
+            self._record.view(np.int64), self._tile_of, self._counts, records.view(np.int64)
+        )
         return records, starts
 
     def _draw_fast(self, frame, texture, records, starts) -> None:
