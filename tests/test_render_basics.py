@@ -77,3 +77,26 @@ def test_tile_bins_list_every_overlapping_tile_in_input_order():
             & (y1 >= y0)
         )
         assert_array_equal(bins.items[bins.starts[t] : bins.starts[t + 1]], expected)
+
+
+def test_tile_nearest_is_the_least_depth_over_each_tile_and_its_neighbours():
+    from motes.render.splat_kernels import tile_nearest
+
+    rng = np.random.default_rng(5)
+    width, height = 150, 70  # partial tiles on the right and at the bottom
+    depth = rng.uniform(1.0, 50.0, (height, width)).astype(np.float32)
+    depth[rng.random((height, width)) < 0.7] = np.inf  # no geometry there
+    depth[:, : 2 * TILE] = np.inf  # whole tiles without geometry
+    tiles_y, tiles_x = -(-height // TILE), -(-width // TILE)
+    got = np.empty((tiles_y, tiles_x), np.float32)
+    tile_nearest(depth, got)
+    padded = np.full((tiles_y * TILE, tiles_x * TILE), np.inf, np.float32)
+    padded[:height, :width] = depth
+    own = padded.reshape(tiles_y, TILE, tiles_x, TILE).min(axis=(1, 3))
+    around = np.pad(own, 1, constant_values=np.inf)
+    expected = np.min(
+        [around[dy : dy + tiles_y, dx : dx + tiles_x] for dy in range(3) for dx in range(3)],
+        axis=0,
+    )
+    assert_array_equal(got, expected)
+    assert np.isinf(got[:, 0]).all() and np.isfinite(got[:, 1:]).all()

@@ -56,7 +56,7 @@ from ._footprint import (
     profile_weight,
     segment_offset,
 )
-from .tiles import CHUNK
+from .tiles import CHUNK, TILE
 
 #: Window sizes [px] of the unrolled drawing loops, one list per tile each (footprints
 #: whose box fits the window), and 0: the list of larger footprints. Sprites up to 3, 4
@@ -96,12 +96,14 @@ def splat_kernel(kind: int, streak: bool, window: int):
     """Compile (or fetch) a fast drawing pass for one footprint kind (not textures).
 
     The returned kernel is ``kernel(records, starts, tiles, inv_soft, texture, depth,
-    color)``: for every tile ``t`` in ``tiles`` (tiles of one parity phase), in parallel,
-    it draws the particles of one of the tile's lists, each whole, clipped to the image
-    only: list ``b = LISTS * t + l`` is ``records[starts[b]:starts[b + 1]]``, where ``l``
-    is the index of ``window`` in :data:`WINDOWS` (0 = footprints of any size). The other
-    arguments are as in :func:`.sprite_kernels.draw_kernel` (``texture`` is a dummy);
-    ``color`` and ``depth`` must be C-contiguous.
+    color, nearest)``: for every tile ``t`` in ``tiles`` (tiles of one parity phase), in
+    parallel, it draws the particles of one of the tile's lists, each whole, clipped to
+    the image only: list ``b = LISTS * t + l`` is ``records[starts[b]:starts[b + 1]]``,
+    where ``l`` is the index of ``window`` in :data:`WINDOWS` (0 = footprints of any
+    size). ``nearest`` is :func:`tile_nearest`'s (tiles,) float32 nearest opaque depth
+    within reach of each tile. The other arguments are as in
+    :func:`.sprite_kernels.draw_kernel` (``texture`` is a dummy); ``color`` and
+    ``depth`` must be C-contiguous.
 
     Each list has its own kernel: with the unrolled and the general loop in one kernel,
     the compiler made the unrolled one 1.8x slower (measured on 1M 3 px sprites).
@@ -109,13 +111,19 @@ def splat_kernel(kind: int, streak: bool, window: int):
     which = WINDOWS.index(window)
 
     @parallel_kernel
-    def kernel(records, starts, tiles, inv_soft, texture, depth, color):
+    def kernel(records, starts, tiles, inv_soft, texture, depth, color, nearest):
         height, width = depth.shape
         inv_soft = np.float32(inv_soft)
         pixels = depth.reshape(-1)
         rgb = color.reshape(-1)
         for j in numba.prange(tiles.shape[0]):
             b = LISTS * tiles[j] + which
+            if window and kind == SMOOTH and not streak:
+                _smooth_pairs(
+                    records, starts[b], starts[b + 1], window, width, height, inv_soft,
+                    nearest[tiles[j]], texture, pixels, rgb,
+                )  # fmt: skip
+                continue
             for s in range(starts[b], starts[b + 1]):
                 if window:
                     _splat_window(
@@ -184,25 +192,6 @@ def _splat_window(records, s, kind, streak, window, width, height, inv_soft, tex
         return
     stride = np.uint64(width)
     weights = stack_floats()
-    if kind == SMOOTH and not streak:
-        # Eight pixels of a row at a time (motes._vector): each row's profile computed
-        # once and kept for the drawing pass; per pixel the operations of the loops below.
-        profile = stack_floats()
-        total = ZERO
-        for dr in range(window):
-            dy = (np.float32(row0 + dr) + HALF) - sy
-            smooth_row(profile, dr * LANES, col0, sx, dy, inv_rf2)
-            row_total = ZERO
-            for dc in range(window):
-                row_total += profile[dr * LANES + dc]
-            total += row_total
-        scale = ONE / total if total > ZERO else ZERO
-        d = tail_depth + ONE * rise
-        for dr in range(window):
-            pixel = np.uint64(row0 + dr) * stride + np.uint64(col0)
-            depth_row(weights, profile, dr * LANES, pixels, pixel, window, scale, d, inv_soft)
-            add_rgb_row(rgb, pixel * np.uint64(3), weights, window, red, green, blue)
-        return
     scale = ONE  # the bilinear tent's weights sum to 1 exactly
     if kind != POINT or streak:
         total = ZERO
@@ -232,6 +221,119 @@ def _splat_window(records, s, kind, streak, window, width, height, inv_soft, tex
             weights[dc] = w * depth_factor(pixels[base + np.uint64(col)], d, inv_soft)
         first = (base + np.uint64(col0)) * np.uint64(3)
         add_rgb_row(rgb, first, weights, window, red, green, blue)
+
+
+@device
+def _smooth_pairs(
+    records, first, end, window, width, height, inv_soft, nearest, texture, pixels, rgb
+):
+    """Draw smooth sprites ``first..end`` of a list (no streaks) in a ``window`` × ``window``
+    window, two at a time.
+
+    A sprite's work is one chain of dependent steps (its profile, their sum, its
+    reciprocal, the weights, the pixels), too long for the processor to overlap with the
+    next sprite's on its own. Both profiles are computed before either sprite is drawn,
+    which gives it two chains to interleave (1M 3-4 px sprites on one thread: about 10 %
+    faster); the sprites are still drawn in list order, so the pixels get the same bits.
+    """
+    stride = np.uint64(width)
+    profile_a = stack_floats()
+    profile_b = stack_floats()
+    weights = stack_floats()
+    s = first
+    while s + 1 < end:
+        a = _smooth_profile(records, s, window, width, height, profile_a)
+        b = _smooth_profile(records, s + 1, window, width, height, profile_b)
+        _smooth_add(records, s, a, window, profile_a, weights, stride, width, height, inv_soft,
+                    nearest, texture, pixels, rgb)  # fmt: skip
+        _smooth_add(records, s + 1, b, window, profile_b, weights, stride, width, height,
+                    inv_soft, nearest, texture, pixels, rgb)  # fmt: skip
+        s += 2
+    if s < end:
+        a = _smooth_profile(records, s, window, width, height, profile_a)
+        _smooth_add(records, s, a, window, profile_a, weights, stride, width, height, inv_soft,
+                    nearest, texture, pixels, rgb)  # fmt: skip
+
+
+@device
+def _smooth_profile(records, s, window, width, height, profile):
+    """Sprite ``s``'s smooth profile over its window into ``profile`` (one row of
+    :data:`LANES` per window row, eight pixels at a time by :func:`smooth_row`), and
+    ``(inside, col0, row0, scale, depth, red, green, blue)``: whether the window lies
+    inside the image, its first column and row, the normalisation ``1 / sum of the
+    window's weights``, the sprite's depth and colour."""
+    sx, sy, rf, red, green, blue, tx, ty, tail_depth, _, _, _, inv_rf2, rise = _unpack(
+        records, s, False
+    )
+    c0, r0, _, _ = footprint_bounds(SMOOTH, sx, sy, tx, ty, rf)
+    col0, row0 = int(c0), int(r0)
+    inside = (col0 >= 0) & (row0 >= 0) & (col0 + window <= width) & (row0 + window <= height)
+    total = ZERO
+    for dr in range(window):
+        dy = (np.float32(row0 + dr) + HALF) - sy
+        smooth_row(profile, dr * LANES, col0, sx, dy, inv_rf2)
+        row_total = ZERO
+        for dc in range(window):
+            row_total += profile[dr * LANES + dc]
+        total += row_total
+    scale = ONE / total if total > ZERO else ZERO
+    return inside, col0, row0, scale, tail_depth + ONE * rise, red, green, blue
+
+
+@device
+def _smooth_add(records, s, prepared, window, profile, weights, stride, width, height, inv_soft,
+                nearest, texture, pixels, rgb):  # fmt: skip
+    """Add sprite ``s`` from its :func:`_smooth_profile`; a window across the image's edge
+    goes to the general loop (:func:`_splat_any`, clipped to the image).
+
+    Where no opaque pixel within the tile's reach is nearer than the sprite by the
+    softness (``nearest``: see :func:`tile_nearest`), every depth factor is 1 and the
+    depths are not read (the same weights: ``w · 1 = w``)."""
+    inside, col0, row0, scale, d, red, green, blue = prepared
+    if not inside:
+        _splat_any(records, s, SMOOTH, False, width, height, inv_soft, texture, pixels, rgb)
+        return
+    clear = (nearest - d) * inv_soft >= ONE
+    for dr in range(window):
+        pixel = np.uint64(row0 + dr) * stride + np.uint64(col0)
+        if clear:
+            for dc in range(window):
+                weights[dc] = profile[dr * LANES + dc] * scale
+        else:
+            depth_row(weights, profile, dr * LANES, pixels, pixel, window, scale, d, inv_soft)
+        add_rgb_row(rgb, pixel * np.uint64(3), weights, window, red, green, blue)
+
+
+@parallel_kernel
+def tile_nearest(depth, out):
+    """The nearest opaque depth [m] each tile's fast-path footprints can meet.
+
+    ``depth``: (h, w) float32 opaque depth (``inf`` where there is none); ``out``:
+    (tiles_y, tiles_x) float32, the least depth over each tile and its eight neighbours
+    (a fast-path footprint reaches at most half a tile beyond its tile). A sprite nearer
+    than that by the softness has a depth factor of 1 on every pixel it touches.
+    """
+    height, width = depth.shape
+    tiles_y, tiles_x = out.shape
+    own = np.empty((tiles_y, tiles_x), np.float32)
+    for ty in numba.prange(tiles_y):
+        # Started from a pixel of the tile, not from an infinite constant: the kernels'
+        # fast-math flags let the compiler assume that no value is infinite.
+        for tx in range(tiles_x):
+            own[ty, tx] = depth[ty * TILE, tx * TILE]
+        for row in range(ty * TILE, min((ty + 1) * TILE, height)):
+            for tx in range(tiles_x):
+                least = own[ty, tx]
+                for col in range(tx * TILE, min((tx + 1) * TILE, width)):
+                    least = min(least, depth[row, col])
+                own[ty, tx] = least
+    for ty in numba.prange(tiles_y):
+        for tx in range(tiles_x):
+            least = own[ty, tx]
+            for y in range(max(ty - 1, 0), min(ty + 2, tiles_y)):
+                for x in range(max(tx - 1, 0), min(tx + 2, tiles_x)):
+                    least = min(least, own[y, x])
+            out[ty, tx] = least
 
 
 @called

@@ -412,12 +412,14 @@ class SpriteRasterizer:
         style = self.style
         tiles_x, tiles_y = -(-frame.width // TILE), -(-frame.height // TILE)
         sizes = np.diff(starts).reshape(-1, splat.LISTS)  # (tiles, lists)
+        nearest = self._buffer("nearest", (tiles_y, tiles_x))
+        splat.tile_nearest(frame.depth, nearest)
         for tiles in _parity_phases(tiles_x, tiles_y):
             for which, window in enumerate(splat.WINDOWS):
                 if sizes[tiles, which].any():
                     splat.splat_kernel(style.footprint, style.shutter > 0, window)(
                         records, starts, tiles, fp.inverse_softness(style.softness), texture,
-                        frame.depth, frame.color,
+                        frame.depth, frame.color, nearest.reshape(-1),
                     )  # fmt: skip
 
     def _bin_general(self, frame):
