@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
+from .._jit import parallel_kernel
 from ..color import parse_color
 
 
@@ -26,12 +28,18 @@ class Background:
         """Write the background into ``frame.color`` (every pixel)."""
         t = (np.arange(frame.height) + 0.5) / frame.height
         rows = (1 - t)[:, None] * self.top + t[:, None] * self.bottom
-        color = frame.color
-        color[:, 0, :] = rows
-        # Copied across in doubling blocks: a broadcast of (h, 1, 3) over the width moves
-        # three floats at a time and took 5x longer at 1280 x 720.
-        done, width = 1, color.shape[1]
-        while done < width:
-            step = min(done, width - done)
-            color[:, done : done + step, :] = color[:, :step, :]
-            done += step
+        _fill_rows(rows.astype(np.float32), frame.color)
+
+
+@parallel_kernel
+def _fill_rows(rows, color):
+    """``color[r, c] = rows[r]`` for every pixel, rows in parallel: at 1280 x 720 after a
+    frame's other work has left the image out of the caches, 2.7 ms as NumPy's copies
+    (doubling blocks across each row) on one thread."""
+    height, width = color.shape[0], color.shape[1]
+    for r in numba.prange(height):
+        red, green, blue = rows[r, 0], rows[r, 1], rows[r, 2]
+        for c in range(width):
+            color[r, c, 0] = red
+            color[r, c, 1] = green
+            color[r, c, 2] = blue
