@@ -49,19 +49,21 @@ def scene_depth():
     return depth
 
 
-def draw_both(style_options, rng, *, texture=None, n=40):
-    """The kernels' image and the twin's, from the same particles and frame."""
+def draw_both(style_options, rng, *, texture=None, n=40, lens=None):
+    """The kernels' image and the twin's, from the same particles and frame (``lens``:
+    the camera's options)."""
     positions, colors, radii, rotation, velocities = cloud(rng, n)
     frame = Frame(W, H)
     frame.color[:] = 0.1
     frame.depth[:] = scene_depth()
     style = SpriteStyle(texture=texture, **style_options)
+    view = camera(**(lens or {}))
     draw_particles(
-        frame, camera(), positions, colors, radii, style=style, rotation=rotation,
+        frame, view, positions, colors, radii, style=style, rotation=rotation,
         velocities=velocities,
     )  # fmt: skip
     expected = naive.draw(
-        np.full((H, W, 3), 0.1), scene_depth(), camera(), positions, colors, radii,
+        np.full((H, W, 3), 0.1), scene_depth(), view, positions, colors, radii,
         texture=texture, rotation=rotation, velocities=velocities, **style_options,
     )  # fmt: skip
     return frame.color, expected
@@ -100,6 +102,12 @@ SLOW_MODES = {
 def test_kernels_match_the_naive_twin(rng, options):
     got, expected = draw_both(options, rng)
     assert np.abs(expected - 0.1).max() > 0.1  # something was drawn
+    assert_allclose(got, expected, rtol=0, atol=ATOL)
+
+
+def test_sprites_through_an_orthographic_camera_match_the_naive_twin(rng):
+    got, expected = draw_both({}, rng, n=200, lens={"projection": "orthographic", "height": 5.0})
+    assert np.abs(expected - 0.1).max() > 0.1
     assert_allclose(got, expected, rtol=0, atol=ATOL)
 
 

@@ -34,6 +34,7 @@ from ._footprint import (
     BLUE,
     COS,
     DEPTH,
+    DISC,
     EXACT_AREA,
     FLOAT_EXPONENT,
     GREEN,
@@ -63,7 +64,7 @@ from ._footprint import (
     segment_offset,
     texture_sample,
 )
-from .camera import FAR, HEIGHT, NEAR, WIDTH, to_screen
+from .camera import EYE, FAR, FORWARD, HEIGHT, NEAR, ORTHO, RIGHT, SCALE, UP, WIDTH, to_screen
 from .splat_kernels import LISTS, WINDOWS
 from .tiles import CHUNK, TILE
 
@@ -200,8 +201,19 @@ def _project_range(
         # The caller raises: nothing of this chunk is drawn or counted.
         status[chunk, PROBLEMS] = bad
         return
+    # Still additive footprints that fit a window of the fast path are placed by
+    # vectorised passes (_project_windows); the loop below then visits only the others.
+    listed = fast and not streak and kind != TEXTURE
+    deferred = np.empty(stop - start if listed else 0, np.int64)
+    count = stop - start
+    if listed:
+        count, drawn, work = _project_windows(
+            start, stop, cam, positions, colors, radii, kind, min_radius, intensity, record,
+            boxes, tile_of, deferred,
+        )  # fmt: skip
     # Unsigned: Numba then skips the negative-index wraparound on every access.
-    for i in range(np.uint64(start), np.uint64(stop)):
+    for j in range(np.uint64(count)):
+        i = np.uint64(deferred[j]) if listed else np.uint64(start) + j
         boxes[0, i] = 0
         boxes[2, i] = -1  # not binned unless drawn by the general path below
         tile_of[i] = -1
@@ -328,6 +340,135 @@ def _project_range(
     status[chunk, DRAWN] = drawn
     status[chunk, GENERAL] = general
     status[chunk, FRAGMENTS] = work
+
+
+#: Particles per pass of :func:`_project_windows`.
+PASS = 256
+
+
+@called
+def _project_windows(
+    start, stop, cam, positions, colors, radii, kind, min_radius, intensity, record, boxes,
+    tile_of, deferred,
+):  # fmt: skip
+    """Project particles ``start..stop`` (additive, without streaks or textures) and list
+    those whose footprint fits a window of the fast path, exactly as
+    :func:`_project_range` would; the indices of the other visible ones go to
+    ``deferred``. Returns ``(deferred count, particles listed, pixels in their boxes)``.
+
+    In passes of :data:`PASS` particles: their inputs copied into contiguous buffers,
+    then projected, measured and classified in a loop without branches or scattered
+    stores, which the compiler vectorises (a loop reading the particles' rows, or a
+    column of the colours, stays scalar), then the records written in a scalar loop.
+    1M sprites on one thread: the projection 24 -> 18.6 ms (the same records).
+    """
+    width = int(cam[WIDTH])
+    height = int(cam[HEIGHT])
+    tiles_x = (width + TILE - 1) // TILE
+    near, far, scale = cam[NEAR], cam[FAR], cam[SCALE]
+    ortho = cam[ORTHO] > 0.5
+    half_width, half_height = 0.5 * cam[WIDTH], 0.5 * cam[HEIGHT]
+    ex, ey, ez = cam[EYE], cam[EYE + 1], cam[EYE + 2]
+    rx, ry, rz = cam[RIGHT], cam[RIGHT + 1], cam[RIGHT + 2]
+    ux, uy, uz = cam[UP], cam[UP + 1], cam[UP + 2]
+    fx, fy, fz = cam[FORWARD], cam[FORWARD + 1], cam[FORWARD + 2]
+    inputs = np.empty((5, PASS), np.float32)
+    placed = np.empty((4, PASS), np.float32)  # sx, sy, depth, radius as recorded
+    gains = np.empty(PASS, np.float64)
+    slots = np.empty(PASS, np.int64)  # list slot; -1 culled, -2 deferred
+    pixels = np.empty(PASS, np.int64)
+    count = drawn = work = 0
+    for first in range(start, stop, PASS):
+        m = min(PASS, stop - first)
+        for k in range(m):
+            i = np.uint64(first + k)
+            inputs[0, k] = positions[i, 0]
+            inputs[1, k] = positions[i, 1]
+            inputs[2, k] = positions[i, 2]
+            inputs[3, k] = radii[i] if kind != POINT else ZERO
+            inputs[4, k] = colors[i, 3]
+        for k in range(m):
+            # to_screen, the radius, footprint_bounds and the fast path's choice of
+            # _project_range, operation for operation, as selects.
+            dx = np.float64(inputs[0, k]) - ex
+            dy = np.float64(inputs[1, k]) - ey
+            dz = np.float64(inputs[2, k]) - ez
+            vx = dx * rx + dy * ry + dz * rz
+            vy = dx * ux + dy * uy + dz * uz
+            depth = dx * fx + dy * fy + dz * fz
+            factor = scale if ortho else scale / max(depth, 1e-12)
+            sx = half_width + factor * vx
+            sy = half_height - factor * vy
+            radius = 0.0
+            rf = 1.0
+            if kind != POINT:
+                radius = min(np.float64(inputs[3, k]) * factor, MAX_RADIUS_PX)
+                rf = max(radius, min_radius)
+            sx32, sy32, rf32 = np.float32(sx), np.float32(sy), np.float32(rf)
+            e = ONE if kind == POINT else (rf32 + HALF if kind == DISC else rf32)
+            c0 = np.floor(sx32 - e - HALF) + ONE
+            c1 = np.ceil(sx32 + e - HALF) - ONE
+            r0 = np.floor(sy32 - e - HALF) + ONE
+            r1 = np.ceil(sy32 + e - HALF) - ONE
+            visible = (
+                (depth >= near) & (depth <= far) & (c1 >= 0) & (r1 >= 0) & (c0 <= width - 1)
+                & (r0 <= height - 1) & (c1 >= c0) & (r1 >= r0)
+            )  # fmt: skip
+            col0, row0 = max(np.int64(c0), 0), max(np.int64(r0), 0)
+            pixels[k] = (min(np.int64(c1), width - 1) - col0 + 1) * (
+                min(np.int64(r1), height - 1) - row0 + 1
+            )
+            span = max(c1 - c0, r1 - r0)
+            which = 0
+            reach = WINDOWS[0] - 1
+            for w in range(LISTS - 1):
+                which += span >= WINDOWS[w]
+            for w in range(1, LISTS - 1):
+                reach += (WINDOWS[w] - WINDOWS[w - 1]) * (span >= WINDOWS[w - 1])
+            col1 = min(np.int64(c0) + reach, width - 1)
+            row1 = min(np.int64(r0) + reach, height - 1)
+            owner_x = ((col0 + col1) >> 1) // TILE
+            owner_y = ((row0 + row1) >> 1) // TILE
+            left, top = owner_x * TILE - MARGIN, owner_y * TILE - MARGIN
+            fits = (
+                (which < LISTS - 1) & (col0 >= left) & (col1 <= left + TILE - 1 + 2 * MARGIN)
+                & (row0 >= top) & (row1 <= top + TILE - 1 + 2 * MARGIN)
+            )  # fmt: skip
+            slot = LISTS * (owner_y * tiles_x + owner_x) + which
+            slots[k] = slot if visible & fits else (-2 if visible else -1)
+            placed[0, k] = sx32
+            placed[1, k] = sy32
+            placed[2, k] = depth
+            placed[3, k] = rf32
+            area = math.pi * radius * radius / 3.0
+            if kind == DISC:
+                area = math.pi * (radius * radius + 1.0 / 12.0)
+            elif kind == POINT:
+                area = 1.0
+            gains[k] = intensity * inputs[4, k] * area
+        for k in range(m):
+            i = np.uint64(first + k)
+            slot = slots[k]
+            boxes[0, i] = 0
+            boxes[2, i] = -1  # not binned unless deferred to the general path
+            tile_of[i] = -1
+            if slot == -2:
+                deferred[count] = i
+                count += 1
+            if slot < 0:
+                continue
+            tile_of[i] = slot
+            drawn += 1
+            work += pixels[k]
+            record[i, SX] = placed[0, k]
+            record[i, SY] = placed[1, k]
+            record[i, DEPTH] = placed[2, k]
+            record[i, RADIUS] = placed[3, k]
+            gain = gains[k]
+            record[i, RED] = colors[i, 0] * gain
+            record[i, GREEN] = colors[i, 1] * gain
+            record[i, BLUE] = colors[i, 2] * gain
+    return count, drawn, work
 
 
 #: Entries of the finiteness checks per array: positions, colors, radii, rotation,
