@@ -28,7 +28,7 @@ from functools import cache
 import numba
 import numpy as np
 
-from .._jit import called, device, fma, parallel_kernel
+from .._jit import called, device, fma, parallel_kernel, serial_kernel
 from .._vector import LANES, STACK_FLOATS, add_rgb_row, depth_row, smooth_row, stack_floats
 from ._footprint import (
     BLUE,
@@ -304,30 +304,32 @@ def _smooth_add(records, s, prepared, window, profile, weights, stride, width, h
         add_rgb_row(rgb, pixel * np.uint64(3), weights, window, red, green, blue)
 
 
-@parallel_kernel
+@serial_kernel
 def tile_nearest(depth, out):
     """The nearest opaque depth [m] each tile's fast-path footprints can meet.
 
     ``depth``: (h, w) float32 opaque depth (``inf`` where there is none); ``out``:
     (tiles_y, tiles_x) float32, the least depth over each tile and its eight neighbours
     (a fast-path footprint reaches at most half a tile beyond its tile). A sprite nearer
-    than that by the softness has a depth factor of 1 on every pixel it touches.
+    than that by the softness has a depth factor of 1 on every pixel it touches. Serial:
+    0.4 ms at 1280 x 720, and a parallel kernel compiles a second longer.
     """
     height, width = depth.shape
     tiles_y, tiles_x = out.shape
     own = np.empty((tiles_y, tiles_x), np.float32)
-    for ty in numba.prange(tiles_y):
-        # Started from a pixel of the tile, not from an infinite constant: the kernels'
-        # fast-math flags let the compiler assume that no value is infinite.
+    # Started from a pixel of each tile, not from an infinite constant: the kernels'
+    # fast-math flags let the compiler assume that no value is infinite.
+    for ty in range(tiles_y):
         for tx in range(tiles_x):
             own[ty, tx] = depth[ty * TILE, tx * TILE]
-        for row in range(ty * TILE, min((ty + 1) * TILE, height)):
-            for tx in range(tiles_x):
-                least = own[ty, tx]
-                for col in range(tx * TILE, min((tx + 1) * TILE, width)):
-                    least = min(least, depth[row, col])
-                own[ty, tx] = least
-    for ty in numba.prange(tiles_y):
+    for row in range(height):
+        ty = row // TILE
+        for tx in range(tiles_x):
+            least = own[ty, tx]
+            for col in range(tx * TILE, min((tx + 1) * TILE, width)):
+                least = min(least, depth[row, col])
+            own[ty, tx] = least
+    for ty in range(tiles_y):
         for tx in range(tiles_x):
             least = own[ty, tx]
             for y in range(max(ty - 1, 0), min(ty + 2, tiles_y)):
