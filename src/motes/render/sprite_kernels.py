@@ -86,14 +86,15 @@ def project_kernel(kind: int, streak: bool):
     contents). The returned kernel is
     ``kernel(cam, positions, colors, radii, rotation, velocities, checks, min_radius,
     shutter, intensity, additive, fast, texture, texture_alpha_mean, record, boxes,
-    tile_of, counts, status)``; see :func:`_project_range`.
+    tile_of, counts, status, listed, deferred, deferred_count)``; see
+    :func:`_project_range`.
     """
 
     @parallel_kernel
     def kernel(
         cam, positions, colors, radii, rotation, velocities, checks, min_radius, shutter,
         intensity, additive, fast, texture, texture_alpha_mean, record, boxes, tile_of,
-        counts, status,
+        counts, status, listed, deferred, deferred_count,
     ):  # fmt: skip
         n = positions.shape[0]
         for chunk in numba.prange(status.shape[0]):
@@ -104,7 +105,7 @@ def project_kernel(kind: int, streak: bool):
                 index * CHUNK, min(n, (index + 1) * CHUNK), index, cam, positions, colors,
                 radii, rotation, velocities, checks, kind, streak, min_radius, shutter,
                 intensity, additive, fast, texture, texture_alpha_mean, record, boxes,
-                tile_of, counts, status,
+                tile_of, counts, status, listed, deferred, deferred_count,
             )  # fmt: skip
 
     return kernel
@@ -136,6 +137,9 @@ def _project_range(
     tile_of,
     counts,
     status,
+    listed,
+    deferred,
+    deferred_count,
 ):
     """Project, cull, classify and measure particles ``start..stop`` (one chunk).
 
@@ -186,6 +190,11 @@ def _project_range(
     status : (chunks, 4) int64, output
         Per chunk: input problems (BAD_* bits), particles drawn, general-path particles,
         and pixels in their clipped boxes (an estimate of the drawing work).
+    listed : bool
+        Whether :func:`windows_kernel` has run on these particles: then only the chunk's
+        particles it deferred are visited, ``deferred[start : start + deferred_count[chunk]]``,
+        and its counts in ``status`` are added to.
+    deferred : (n,) int64; deferred_count : (chunks,) int64
     """
     width = int(cam[WIDTH])
     height = int(cam[HEIGHT])
@@ -196,24 +205,23 @@ def _project_range(
     drawn = 0
     general = 0
     work = 0
-    bad = _chunk_problems(start, stop, checks, kind, streak, radii)
-    if bad:
-        # The caller raises: nothing of this chunk is drawn or counted.
-        status[chunk, PROBLEMS] = bad
-        return
-    # Still additive footprints that fit a window of the fast path are placed by
-    # vectorised passes (_project_windows); the loop below then visits only the others.
-    listed = fast and not streak and kind != TEXTURE
-    deferred = np.empty(stop - start if listed else 0, np.int64)
     count = stop - start
     if listed:
-        count, drawn, work = _project_windows(
-            start, stop, cam, positions, colors, radii, kind, min_radius, intensity, record,
-            boxes, tile_of, deferred,
-        )  # fmt: skip
+        # windows_kernel checked the chunk and placed what fits the fast path's windows.
+        if status[chunk, PROBLEMS]:
+            return
+        count = deferred_count[chunk]
+        drawn = status[chunk, DRAWN]
+        work = status[chunk, FRAGMENTS]
+    else:
+        bad = _chunk_problems(start, stop, checks, kind, streak, radii)
+        if bad:
+            # The caller raises: nothing of this chunk is drawn or counted.
+            status[chunk, PROBLEMS] = bad
+            return
     # Unsigned: Numba then skips the negative-index wraparound on every access.
     for j in range(np.uint64(count)):
-        i = np.uint64(deferred[j]) if listed else np.uint64(start) + j
+        i = np.uint64(deferred[start + j]) if listed else np.uint64(start) + j
         boxes[0, i] = 0
         boxes[2, i] = -1  # not binned unless drawn by the general path below
         tile_of[i] = -1
@@ -346,6 +354,44 @@ def _project_range(
 PASS = 256
 
 
+@cache
+def windows_kernel(kind: int):
+    """Compile (or fetch) the first projection pass of still additive footprints of one
+    kind (not textures): :func:`_project_windows` over fixed chunks, in parallel.
+
+    The returned kernel is ``kernel(cam, positions, colors, radii, checks, min_radius,
+    intensity, record, boxes, tile_of, deferred, deferred_count, status)``: per chunk,
+    the input check of :func:`_project_range` (``status[chunk, PROBLEMS]``), then the
+    particles that fit a window listed (``status[chunk, DRAWN]``, ``FRAGMENTS``) and the
+    other visible ones' indices in ``deferred[start : start + deferred_count[chunk]]``,
+    for the projection kernel run with ``listed``. A kernel of its own, launched only
+    for such styles, so that streaks and textures do not compile it (2-3 s).
+    """
+
+    @parallel_kernel
+    def kernel(
+        cam, positions, colors, radii, checks, min_radius, intensity, record, boxes, tile_of,
+        deferred, deferred_count, status,
+    ):  # fmt: skip
+        n = positions.shape[0]
+        for chunk in numba.prange(status.shape[0]):
+            index = np.int64(chunk)  # as in project_kernel
+            start, stop = index * CHUNK, min(n, (index + 1) * CHUNK)
+            bad = _chunk_problems(start, stop, checks, kind, False, radii)
+            status[chunk, PROBLEMS] = bad
+            if bad:
+                continue
+            count, drawn, work = _project_windows(
+                start, stop, cam, positions, colors, radii, kind, min_radius, intensity,
+                record, boxes, tile_of, deferred[start:stop],
+            )  # fmt: skip
+            deferred_count[chunk] = count
+            status[chunk, DRAWN] = drawn
+            status[chunk, FRAGMENTS] = work
+
+    return kernel
+
+
 @called
 def _project_windows(
     start, stop, cam, positions, colors, radii, kind, min_radius, intensity, record, boxes,
@@ -354,7 +400,8 @@ def _project_windows(
     """Project particles ``start..stop`` (additive, without streaks or textures) and list
     those whose footprint fits a window of the fast path, exactly as
     :func:`_project_range` would; the indices of the other visible ones go to
-    ``deferred``. Returns ``(deferred count, particles listed, pixels in their boxes)``.
+    ``deferred`` (its first entries). Returns ``(deferred count, particles listed, pixels
+    in their boxes)``.
 
     In passes of :data:`PASS` particles: their inputs copied into contiguous buffers,
     then projected, measured and classified in a loop without branches or scattered

@@ -385,10 +385,22 @@ class SpriteRasterizer:
         alpha_mean = float(texture[..., 3].mean()) if kind == fp.TEXTURE else 0.0
         additive = style.blend is Blend.ADDITIVE
         checks = _bit_columns(arrays)
+        # Still additive footprints: those that fit the fast path's windows first, in
+        # vectorised passes; the projection kernel then visits the others.
+        listed = additive and not streak and kind != fp.TEXTURE
+        deferred = self._buffer("deferred", (n if listed else 0,), np.int64)
+        deferred_count = np.zeros(chunks, np.int64)
+        if listed:
+            k.windows_kernel(kind)(
+                camera.packed(), arrays[0], arrays[1], arrays[2], checks, style.min_radius_px,
+                style.intensity, self._record, self._boxes, self._tile_of, deferred,
+                deferred_count, status,
+            )  # fmt: skip
         k.project_kernel(kind, streak)(
             camera.packed(), *arrays, checks, style.min_radius_px, style.shutter,
             style.intensity, additive, additive, texture, alpha_mean, self._record,
-            self._boxes, self._tile_of, self._counts, status,
+            self._boxes, self._tile_of, self._counts, status, listed, deferred,
+            deferred_count,
         )  # fmt: skip
         problems = int(np.bitwise_or.reduce(status[:, k.PROBLEMS]))
         for bit, message in _CHECKS:
