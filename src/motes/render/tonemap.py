@@ -147,9 +147,8 @@ def to_srgb8(color, *, exposure: float = 1.0, tonemap: str = "aces", out=None) -
 
 
 def to_srgb(color, *, exposure: float = 1.0, tonemap: str = "aces") -> np.ndarray:
-    """The tone curve and sRGB encoding of :func:`to_srgb8`, evaluated exactly (no
-    lookup table), as float32 in [0, 1]: for 16-bit output, where the table's error
-    would show."""
+    """The tone curve and sRGB encoding of :func:`to_srgb8`, evaluated for each value, as
+    float32 in [0, 1] (not rounded to 8 bits): for 16-bit output."""
     color = np.asarray(color, dtype=np.float32)
     exposure = check.positive("exposure", exposure)
     curve = ToneMap(check.choice("tonemap", tonemap, [t.value for t in ToneMap]))
